@@ -1,0 +1,24 @@
+#pragma once
+// Time is an int64_t count of nanoseconds (`t_ns`), as in EuRoC's file names and CSV columns.
+// Doubles in seconds appear only inside maths (spline evaluation, integration steps).
+
+#include <cstdint>
+
+namespace mav {
+
+inline constexpr int64_t kNsPerSecond = 1'000'000'000;
+
+constexpr double NsToSeconds(int64_t t_ns) { return static_cast<double>(t_ns) * 1e-9; }
+// Rounds to the nearest nanosecond.
+constexpr int64_t SecondsToNs(double seconds) {
+  return static_cast<int64_t>(seconds * 1e9 + (seconds >= 0 ? 0.5 : -0.5));
+}
+// Period of a rate in Hz, in ns (20 Hz -> 50'000'000).
+constexpr int64_t PeriodNs(double rate_hz) { return SecondsToNs(1.0 / rate_hz); }
+
+// Monotonic clock for measuring durations.
+int64_t MonotonicNowNs();
+// Wall clock (UNIX epoch) for stamping live data.
+int64_t WallNowNs();
+
+}  // namespace mav

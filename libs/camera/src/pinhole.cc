@@ -15,8 +15,7 @@ bool PinholeRadTan::IsValid(std::string* why) const {
     msg << "intrinsics: focal lengths must be positive and finite, got fx=" << fx << " fy=" << fy;
   } else if (!std::isfinite(cx) || !std::isfinite(cy)) {
     msg << "intrinsics: principal point must be finite";
-  } else if (!std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) ||
-             !std::isfinite(p2)) {
+  } else if (!std::isfinite(k1) || !std::isfinite(k2) || !std::isfinite(p1) || !std::isfinite(p2)) {
     msg << "distortion_coefficients: must be finite";
   } else {
     return true;

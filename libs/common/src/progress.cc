@@ -42,8 +42,8 @@ void ProgressBar::Draw(bool force) {
     last_draw_ns_ = now;
     constexpr int kWidth = 30;
     const int filled = static_cast<int>(fraction * kWidth);
-    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%% %lld/%lld  %.1fs elapsed, %.1fs left", label_.c_str(),
-                 filled, "##############################", kWidth - filled, "",
+    std::fprintf(stderr, "\r%s [%.*s%*s] %3d%% %lld/%lld  %.1fs elapsed, %.1fs left",
+                 label_.c_str(), filled, "##############################", kWidth - filled, "",
                  static_cast<int>(fraction * 100), static_cast<long long>(done_),
                  static_cast<long long>(total_), elapsed_s, eta_s);
     std::fflush(stderr);

@@ -25,7 +25,7 @@ struct Voidify {
 
 }  // namespace mav::internal
 
-#define MAV_CHECK(condition)                   \
-  (condition) ? (void)0                        \
-              : ::mav::internal::Voidify() &   \
+#define MAV_CHECK(condition)                 \
+  (condition) ? (void)0                      \
+              : ::mav::internal::Voidify() & \
                     ::mav::internal::CheckFailure(#condition, __FILE__, __LINE__).stream()

@@ -27,7 +27,7 @@ class LogMessage {
 
 }  // namespace mav
 
-#define MAV_LOG(level)                                               \
-  if (::mav::LogLevel::level < ::mav::GetLogLevel()) {               \
-  } else                                                             \
+#define MAV_LOG(level)                                 \
+  if (::mav::LogLevel::level < ::mav::GetLogLevel()) { \
+  } else                                               \
     ::mav::internal::LogMessage(::mav::LogLevel::level, __FILE__, __LINE__).stream()

@@ -24,9 +24,9 @@ struct ImuSample {
 struct GroundTruthState {
   int64_t t_ns = 0;
   geometry::SE3 T_world_body;
-  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();      // m/s
-  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();    // rad/s
-  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();   // m/s^2
+  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();     // m/s
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();   // rad/s
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();  // m/s^2
 };
 
 // A pose with a time stamp (TUM trajectory rows).
@@ -37,10 +37,10 @@ struct StampedPose {
 
 // Continuous-time noise figures of an IMU, as in EuRoC's imu0/sensor.yaml.
 struct ImuNoise {
-  double gyroscope_noise_density = 1.6968e-04;      // rad/s/sqrt(Hz)
-  double gyroscope_random_walk = 1.9393e-05;        // rad/s^2/sqrt(Hz)
-  double accelerometer_noise_density = 2.0000e-3;   // m/s^2/sqrt(Hz)
-  double accelerometer_random_walk = 3.0000e-3;     // m/s^3/sqrt(Hz)
+  double gyroscope_noise_density = 1.6968e-04;     // rad/s/sqrt(Hz)
+  double gyroscope_random_walk = 1.9393e-05;       // rad/s^2/sqrt(Hz)
+  double accelerometer_noise_density = 2.0000e-3;  // m/s^2/sqrt(Hz)
+  double accelerometer_random_walk = 3.0000e-3;    // m/s^3/sqrt(Hz)
 };
 
 }  // namespace mav::dataset

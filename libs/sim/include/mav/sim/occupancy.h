@@ -46,8 +46,8 @@ class OccupancyGrid {
   int64_t Count(VoxelState state) const;
   const std::vector<VoxelState>& states() const { return states_; }
 
-  Status WriteOctomap(const std::string& path) const;   // .bt
-  Status Write(const std::string& path) const;          // .mavocc
+  Status WriteOctomap(const std::string& path) const;          // .bt
+  Status Write(const std::string& path) const;                 // .mavocc
   static Result<OccupancyGrid> Read(const std::string& path);  // .mavocc
 
  private:

@@ -22,10 +22,10 @@ namespace mav::sim {
 // Full kinematic state of the body frame at one instant.
 struct TrajectoryState {
   geometry::SE3 T_world_body;
-  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();      // m/s
-  Eigen::Vector3d a_world = Eigen::Vector3d::Zero();      // m/s^2 (kinematic, without gravity)
-  Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();   // rad/s, body frame
-  Eigen::Vector3d alpha_body = Eigen::Vector3d::Zero();   // rad/s^2, body frame
+  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();     // m/s
+  Eigen::Vector3d a_world = Eigen::Vector3d::Zero();     // m/s^2 (kinematic, without gravity)
+  Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();  // rad/s, body frame
+  Eigen::Vector3d alpha_body = Eigen::Vector3d::Zero();  // rad/s^2, body frame
 };
 
 // Motion style, matching the paper's three data sets and the plant flights.
@@ -68,8 +68,8 @@ class Trajectory {
  private:
   double duration_s_ = 0;
   double knot_dt_ = 1;
-  std::vector<Eigen::Vector3d> position_ctrl_;   // quintic B-spline control points
-  std::vector<Eigen::Vector3d> rpy_ctrl_;        // roll, pitch, yaw control points (unwrapped)
+  std::vector<Eigen::Vector3d> position_ctrl_;  // quintic B-spline control points
+  std::vector<Eigen::Vector3d> rpy_ctrl_;       // roll, pitch, yaw control points (unwrapped)
 };
 
 // Gravity in the world frame (z up).

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Idempotent set-up: installs the Debian packages listed in deploy/packages.txt that are missing,
+# then configures and builds the Release tree in build/ (incrementally; ccache makes rebuilds cheap).
+#
+#   deploy/setup.sh [--no-build] [--build-dir DIR] [--jobs N]
+#
+# Safe to run any number of times: apt is touched only when a package is missing.
+set -euo pipefail
+
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build_dir="$repo/build"
+jobs="$(nproc 2>/dev/null || echo 2)"
+do_build=1
+
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --no-build) do_build=0; shift ;;
+    --build-dir) build_dir="$2"; shift 2 ;;
+    --jobs) jobs="$2"; shift 2 ;;
+    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    *) echo "setup.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
+  esac
+done
+
+log() { printf '\033[1m[setup]\033[0m %s\n' "$*" >&2; }
+
+mapfile -t packages < <(grep -vE '^\s*(#|$)' "$repo/deploy/packages.txt")
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [[ ${#missing[@]} -gt 0 ]]; then
+  log "installing ${#missing[@]} missing Debian packages: ${missing[*]}"
+  sudo_cmd=()
+  if [[ $(id -u) -ne 0 ]]; then
+    command -v sudo >/dev/null || { echo "setup.sh: need root or sudo to install packages" >&2; exit 1; }
+    sudo_cmd=(sudo)
+  fi
+  "${sudo_cmd[@]}" apt-get update -q
+  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
+else
+  log "all ${#packages[@]} Debian packages present"
+fi
+
+[[ $do_build -eq 1 ]] || exit 0
+
+if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
+  log "configuring Release build in $build_dir"
+  cmake -S "$repo" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+fi
+log "building with $jobs jobs (incremental)"
+cmake --build "$build_dir" -j "$jobs"
+log "done: executables in $build_dir/bin"

@@ -7,6 +7,9 @@
 // active convention: Exp(xi) = [[Exp(phi), J(phi) rho], [0, 1]] (Barfoot, "State Estimation for
 // Robotics", 2017, Sec. 7.1).
 
+#include <cmath>
+#include <limits>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -31,8 +34,10 @@ double AngleBetween(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b);
 class SE3 {
  public:
   SE3() : q_(Eigen::Quaterniond::Identity()), t_(Eigen::Vector3d::Zero()) {}
-  // `q` is normalised here, so callers may pass a slightly denormalised quaternion.
-  SE3(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) : q_(q.normalized()), t_(t) {}
+  // `q` is normalised here, so callers may pass a slightly denormalised quaternion. A quaternion
+  // that is already unit to rounding (|q|^2 within 4 ulp of 1) is kept bit for bit, so poses read
+  // from files round-trip exactly.
+  SE3(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) : q_(NormalizedIfNeeded(q)), t_(t) {}
   SE3(const Eigen::Matrix3d& r, const Eigen::Vector3d& t);
 
   static SE3 Identity() { return SE3(); }
@@ -55,6 +60,11 @@ class SE3 {
   bool IsApprox(const SE3& other, double tol = 1e-9) const;
 
  private:
+  static Eigen::Quaterniond NormalizedIfNeeded(const Eigen::Quaterniond& q) {
+    const double n2 = q.squaredNorm();
+    return std::abs(n2 - 1.0) <= 4.0 * std::numeric_limits<double>::epsilon() ? q : q.normalized();
+  }
+
   Eigen::Quaterniond q_;
   Eigen::Vector3d t_;
 };

@@ -1,0 +1,51 @@
+#pragma once
+// A small command-line flag parser for mav-sim's subcommands: "--name value" or "--name=value",
+// boolean switches without a value, positional arguments kept in order. Every error names the
+// flag: "--frames: 'ten' is not an integer", "unknown flag '--frame' (see --help)".
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "mav/common/status.h"
+
+namespace mav::sim_cli {
+
+class FlagParser {
+ public:
+  // `usage` is the first line of Help(), e.g. "mav-sim generate --preset P --out DIR [flags]".
+  explicit FlagParser(std::string usage) : usage_(std::move(usage)) {}
+
+  // The target keeps its value unless the flag is given; its current value is shown as default.
+  void AddString(const std::string& name, std::string* target, const std::string& help);
+  void AddInt64(const std::string& name, int64_t* target, const std::string& help);
+  void AddUint64(const std::string& name, uint64_t* target, const std::string& help);
+  void AddDouble(const std::string& name, double* target, const std::string& help);
+  // A switch: "--name" sets true; "--name=true|false|1|0" is accepted too.
+  void AddBool(const std::string& name, bool* target, const std::string& help);
+
+  // Parses args (without the program and command names). Sets *help if --help/-h was given.
+  Status Parse(const std::vector<std::string>& args, std::vector<std::string>* positional,
+               bool* help);
+  // True if the flag appeared on the command line.
+  bool WasSet(const std::string& name) const;
+  std::string Help() const;
+
+ private:
+  enum class Kind { kString, kInt64, kUint64, kDouble, kBool };
+  struct Flag {
+    std::string name;
+    Kind kind;
+    void* target;
+    std::string help;
+    std::string default_text;
+    bool set = false;
+  };
+  Flag* Find(const std::string& name);
+  Status Assign(Flag* flag, const std::string& value);
+
+  std::string usage_;
+  std::vector<Flag> flags_;
+};
+
+}  // namespace mav::sim_cli

@@ -1,0 +1,197 @@
+// mav-sim preview: one picture of a data set frame - the left and right images side by side over a
+// top view of the ground-truth occupancy sliced at the camera's height (occupied dark, free light,
+// unknown grey), with the trajectory and the camera's position and viewing direction.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "commands.h"
+#include "flags.h"
+#include "mav/common/file.h"
+#include "mav/common/time.h"
+#include "mav/dataset/euroc.h"
+#include "mav/dataset/stereo_pair.h"
+#include "mav/sim/occupancy.h"
+
+namespace mav::sim_cli {
+namespace {
+
+constexpr const char* kCommand = "preview";
+constexpr int kMaxSliceHeight = 720;
+
+// Ground-truth body pose at t_ns, interpolated between the two neighbouring states.
+geometry::SE3 BodyPoseAt(const std::vector<dataset::GroundTruthState>& gt, int64_t t_ns) {
+  const auto it =
+      std::lower_bound(gt.begin(), gt.end(), t_ns,
+                       [](const dataset::GroundTruthState& s, int64_t t) { return s.t_ns < t; });
+  if (it == gt.begin()) return gt.front().T_world_body;
+  if (it == gt.end()) return gt.back().T_world_body;
+  const dataset::GroundTruthState& b = *it;
+  const dataset::GroundTruthState& a = *(it - 1);
+  const double alpha = static_cast<double>(t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
+  return geometry::InterpolatePose(a.T_world_body, b.T_world_body, alpha);
+}
+
+// Maps world (x, y) to slice pixels: x to the right, y up.
+struct TopView {
+  double x0 = 0, y1 = 0, scale = 1;  // pixels per metre
+  cv::Point2d ToPixel(const Eigen::Vector3d& p) const {
+    return {(p.x() - x0) * scale, (y1 - p.y()) * scale};
+  }
+  Eigen::Vector2d ToWorld(int u, int v) const {
+    return {x0 + (u + 0.5) / scale, y1 - (v + 0.5) / scale};
+  }
+};
+
+}  // namespace
+
+int RunPreview(const std::vector<std::string>& args) {
+  int64_t frame = 0;
+  std::string out;
+  FlagParser parser(
+      "mav-sim preview DIR --frame K --out x.png\n\n"
+      "Draws frame K's left and right images side by side above a top view of the ground-truth\n"
+      "occupancy (DIR/ground_truth/occupancy.mavocc) sliced at the camera height: occupied dark,\n"
+      "free light, unknown grey; the trajectory in blue, the camera in red.");
+  parser.AddInt64("frame", &frame, "frame index");
+  parser.AddString("out", &out, "output PNG (required)");
+  std::vector<std::string> positional;
+  bool help = false;
+  const Status parsed = parser.Parse(args, &positional, &help);
+  if (help) {
+    std::fputs(parser.Help().c_str(), stdout);
+    return kExitOk;
+  }
+  if (!parsed.ok()) {
+    PrintError(kCommand, parsed.ToString());
+    return kExitUsage;
+  }
+  if (positional.size() != 1) {
+    PrintError(kCommand, "expected exactly one data set directory (see --help)");
+    return kExitUsage;
+  }
+  if (out.empty()) {
+    PrintError(kCommand, "--out: required");
+    return kExitUsage;
+  }
+  const std::string& dir = positional[0];
+  auto reader = dataset::EurocReader::Open(dir);
+  if (!reader.ok()) {
+    PrintError(kCommand, reader.status().ToString());
+    return kExitFailure;
+  }
+  if (frame < 0 || frame >= reader->num_frames()) {
+    PrintError(kCommand, "--frame: " + std::to_string(frame) + " is outside [0, " +
+                             std::to_string(reader->num_frames()) + ")");
+    return kExitUsage;
+  }
+  auto pair = reader->ReadStereo(frame);
+  if (!pair.ok()) {
+    PrintError(kCommand, pair.status().ToString());
+    return kExitFailure;
+  }
+
+  // Top row: the stereo pair.
+  cv::Mat stereo;
+  cv::hconcat(pair->left, pair->right, stereo);
+  cv::cvtColor(stereo, stereo, cv::COLOR_GRAY2BGR);
+  const int width = stereo.cols;
+
+  // Bottom: the slice.
+  std::optional<sim::OccupancyGrid> grid;
+  const std::string occupancy_path = dir + "/ground_truth/occupancy.mavocc";
+  if (PathExists(occupancy_path)) {
+    auto read = sim::OccupancyGrid::Read(occupancy_path);
+    if (!read.ok()) {
+      PrintError(kCommand, read.status().ToString());
+      return kExitFailure;
+    }
+    grid = std::move(read).value();
+  }
+  const std::vector<dataset::GroundTruthState>& gt = reader->ground_truth();
+  Eigen::AlignedBox3d extent;
+  if (grid) {
+    extent.extend(grid->origin());
+    extent.extend(grid->origin() + grid->size().cast<double>() * grid->resolution());
+  }
+  for (const dataset::GroundTruthState& s : gt) extent.extend(s.T_world_body.Translation());
+  if (extent.isEmpty()) {
+    extent = Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, 0), Eigen::Vector3d(1, 1, 1));
+  }
+  const Eigen::Vector3d size = extent.sizes().cwiseMax(1e-3);
+  TopView view;
+  view.scale = std::min(width / size.x(), kMaxSliceHeight / size.y());
+  view.x0 = extent.min().x() - (width / view.scale - size.x()) / 2;  // centre horizontally
+  view.y1 = extent.max().y();
+  const int height = std::max(1, static_cast<int>(std::lround(size.y() * view.scale)));
+
+  const int64_t t_ns = reader->frame_times()[frame];
+  geometry::SE3 T_world_cam0;
+  if (!gt.empty()) {
+    T_world_cam0 = BodyPoseAt(gt, t_ns) * reader->calibration().T_body_cam0;
+  } else {
+    T_world_cam0 = geometry::SE3(Eigen::Quaterniond::Identity(), extent.center());
+  }
+  const double slice_z = T_world_cam0.Translation().z();
+
+  cv::Mat slice(height, width, CV_8UC3, cv::Scalar(128, 128, 128));
+  if (grid) {
+    for (int v = 0; v < height; ++v) {
+      for (int u = 0; u < width; ++u) {
+        const Eigen::Vector2d xy = view.ToWorld(u, v);
+        const sim::VoxelState s = grid->StateAt(Eigen::Vector3d(xy.x(), xy.y(), slice_z));
+        const uint8_t grey =
+            s == sim::VoxelState::kOccupied ? 40 : (s == sim::VoxelState::kFree ? 235 : 128);
+        slice.at<cv::Vec3b>(v, u) = cv::Vec3b(grey, grey, grey);
+      }
+    }
+  }
+  if (!gt.empty()) {
+    std::vector<cv::Point> path;
+    for (size_t i = 0; i < gt.size(); i += 5) {
+      const cv::Point2d p = view.ToPixel(gt[i].T_world_body.Translation());
+      path.emplace_back(static_cast<int>(std::lround(p.x)), static_cast<int>(std::lround(p.y)));
+    }
+    cv::polylines(slice, path, false, cv::Scalar(200, 90, 20), 2, cv::LINE_AA);
+    const cv::Point2d c = view.ToPixel(T_world_cam0.Translation());
+    // The optical axis (camera z) projected onto the ground plane, 0.6 m long.
+    Eigen::Vector3d axis = T_world_cam0.Rotation() * Eigen::Vector3d::UnitZ();
+    axis.z() = 0;
+    if (axis.norm() > 1e-6) {
+      const cv::Point2d tip = view.ToPixel(T_world_cam0.Translation() + 0.6 * axis.normalized());
+      cv::arrowedLine(slice, c, tip, cv::Scalar(0, 0, 230), 3, cv::LINE_AA, 0, 0.3);
+    }
+    cv::circle(slice, c, 8, cv::Scalar(0, 0, 230), cv::FILLED, cv::LINE_AA);
+  }
+  char caption[256];
+  std::snprintf(caption, sizeof(caption), "frame %lld  t = %.2f s  slice z = %.2f m%s",
+                static_cast<long long>(frame), NsToSeconds(t_ns - reader->frame_times().front()),
+                slice_z, grid ? "" : "  (no ground-truth occupancy)");
+  cv::putText(slice, caption, cv::Point(12, 30), cv::FONT_HERSHEY_SIMPLEX, 0.8, cv::Scalar(0, 0, 0),
+              3, cv::LINE_AA);
+  cv::putText(slice, caption, cv::Point(12, 30), cv::FONT_HERSHEY_SIMPLEX, 0.8,
+              cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+
+  cv::Mat picture;
+  cv::vconcat(stereo, slice, picture);
+  try {
+    if (!cv::imwrite(out, picture)) {
+      PrintError(kCommand, "--out: cannot write '" + out + "'");
+      return kExitFailure;
+    }
+  } catch (const cv::Exception& e) {
+    PrintError(kCommand, "--out: cannot write '" + out + "': " + e.what());
+    return kExitFailure;
+  }
+  std::printf("wrote %s (%dx%d)\n", out.c_str(), picture.cols, picture.rows);
+  return kExitOk;
+}
+
+}  // namespace mav::sim_cli

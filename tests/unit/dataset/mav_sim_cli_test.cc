@@ -1,0 +1,179 @@
+// Runs the built mav-sim binary: a generated data set read back with EurocReader reproduces
+// Scenario's rendering bit for bit; bad flags and missing data sets fail with clear messages.
+
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "mav/dataset/euroc.h"
+#include "mav/dataset/stereo_pair.h"
+#include "mav/sim/occupancy.h"
+#include "mav/sim/scenario.h"
+#include "test_util.h"
+
+namespace mav::dataset {
+namespace {
+
+using testing::TempDir;
+namespace fs = std::filesystem;
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+RunResult RunMavSim(const std::string& args) {
+  const std::string command = std::string(MAV_BINARY_DIR) + "/bin/mav-sim " + args + " 2>&1";
+  RunResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buffer[4096];
+  size_t n;
+  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+bool SameImage(const cv::Mat& a, const cv::Mat& b) {
+  return a.size() == b.size() && a.type() == b.type() &&
+         std::equal(a.begin<uint8_t>(), a.end<uint8_t>(), b.begin<uint8_t>());
+}
+
+TEST(MavSimCli, GenerateThenReadReproducesRenderingExactly) {
+  TempDir dir;
+  const std::string out = dir.path() + "/set";
+  const RunResult run =
+      RunMavSim("generate --preset room-easy --frames 10 --seed 7 --threads 2 --out " + out);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+
+  auto reader = EurocReader::Open(out);
+  ASSERT_TRUE(reader.ok()) << reader.status().ToString();
+  sim::ScenarioOptions options;
+  options.preset = "room-easy";
+  options.frames = 10;
+  options.seed = 7;
+  auto scenario = sim::Scenario::Create(options);
+  ASSERT_TRUE(scenario.ok()) << scenario.status().ToString();
+
+  ASSERT_EQ(reader->num_frames(), 10);
+  EXPECT_EQ(reader->skipped_frames(), 0);
+  for (int64_t k = 0; k < 10; ++k) {
+    EXPECT_EQ(reader->frame_times()[k], scenario->FrameTimeNs(k));
+    auto pair = reader->ReadStereo(k);
+    ASSERT_TRUE(pair.ok()) << pair.status().ToString();
+    cv::Mat left, right;
+    scenario->RenderStereo(k, &left, &right);
+    EXPECT_TRUE(SameImage(pair->left, left)) << "left " << k;
+    EXPECT_TRUE(SameImage(pair->right, right)) << "right " << k;
+  }
+  // Calibration, IMU and ground truth are the scenario's.
+  EXPECT_EQ(reader->calibration().cam0.fx, scenario->calibration().cam0.fx);
+  EXPECT_EQ(reader->calibration().cam1.k1, scenario->calibration().cam1.k1);
+  EXPECT_NEAR(reader->calibration().Baseline(), scenario->calibration().Baseline(), 1e-15);
+  EXPECT_EQ(reader->imu_noise().gyroscope_noise_density,
+            scenario->imu_noise().gyroscope_noise_density);
+  const std::vector<ImuSample> imu = scenario->ImuSamples();
+  ASSERT_EQ(reader->imu().size(), imu.size());
+  for (size_t i = 0; i < imu.size(); ++i) {
+    EXPECT_EQ(reader->imu()[i].t_ns, imu[i].t_ns);
+    EXPECT_EQ(reader->imu()[i].gyro, imu[i].gyro);
+    EXPECT_EQ(reader->imu()[i].accel, imu[i].accel);
+  }
+  const std::vector<GroundTruthState> gt = scenario->GroundTruth();
+  ASSERT_EQ(reader->ground_truth().size(), gt.size());
+  for (size_t i = 0; i < gt.size(); ++i) {
+    EXPECT_EQ(reader->ground_truth()[i].T_world_body.Translation(),
+              gt[i].T_world_body.Translation());
+    EXPECT_LE((reader->ground_truth()[i].T_world_body.Rotation().coeffs() -
+               gt[i].T_world_body.Rotation().coeffs())
+                  .cwiseAbs()
+                  .maxCoeff(),
+              2.3e-16);
+  }
+
+  EXPECT_TRUE(fs::exists(out + "/ground_truth/occupancy.bt"));
+  EXPECT_TRUE(fs::exists(out + "/ground_truth/scenario.yaml"));
+  auto grid = sim::OccupancyGrid::Read(out + "/ground_truth/occupancy.mavocc");
+  ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+  EXPECT_GT(grid->Count(sim::VoxelState::kOccupied), 0);
+
+  // info and preview work on it.
+  const RunResult info = RunMavSim("info " + out);
+  EXPECT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("10 stereo pairs"), std::string::npos) << info.output;
+  EXPECT_NE(info.output.find("baseline 0.110"), std::string::npos) << info.output;
+  const RunResult preview =
+      RunMavSim("preview " + out + " --frame 4 --out " + dir.path() + "/p.png");
+  ASSERT_EQ(preview.exit_code, 0) << preview.output;
+  const cv::Mat picture = cv::imread(dir.path() + "/p.png");
+  EXPECT_EQ(picture.cols, 2 * 752);
+  EXPECT_GT(picture.rows, 480);
+
+  // A second run into the same directory is refused without --force.
+  const RunResult again = RunMavSim("generate --preset room-easy --frames 2 --out " + out);
+  EXPECT_NE(again.exit_code, 0);
+  EXPECT_NE(again.output.find("--force"), std::string::npos) << again.output;
+}
+
+TEST(MavSimCli, BadFlagsFailNamingTheFlag) {
+  TempDir dir;
+  const std::string out = " --out " + dir.path() + "/x";
+  struct Case {
+    std::string args;
+    std::string expected;
+  };
+  const Case cases[] = {
+      {"generate --preset rom-easy --frames 2" + out, "preset"},
+      {"generate --preset room-easy --frames ten" + out, "--frames"},
+      {"generate --preset room-easy --frames -3" + out, "--frames"},
+      {"generate --preset room-easy --frames 2 --threads 0" + out, "--threads"},
+      {"generate --preset room-easy --frames 2 --bogus 1" + out, "--bogus"},
+      {"generate --frames 2" + out, "--preset"},
+      {"generate --preset room-easy --out", "--out: missing value"},
+      {"generate --preset room-easy --frames 2 --occupancy-resolution 0" + out,
+       "--occupancy-resolution"},
+      {"frobnicate", "unknown command"},
+      {"info", "directory"},
+      {"info /nonexistent/mav/set", "/nonexistent/mav/set"},
+      {"preview /nonexistent/mav/set --frame 0 --out /tmp/never.png", "/nonexistent/mav/set"},
+  };
+  for (const Case& c : cases) {
+    const RunResult r = RunMavSim(c.args);
+    EXPECT_NE(r.exit_code, 0) << c.args;
+    EXPECT_NE(r.output.find(c.expected), std::string::npos)
+        << "mav-sim " << c.args << " -> " << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir.path() + "/x/mav0")) << "nothing is written for bad flags";
+  EXPECT_EQ(RunMavSim("--help").exit_code, 0);
+  EXPECT_EQ(RunMavSim("generate --help").exit_code, 0);
+}
+
+TEST(MavSimCli, InfoOnCorruptDataSetFails) {
+  TempDir dir;
+  const std::string out = dir.path() + "/set";
+  ASSERT_EQ(RunMavSim("generate --preset room-easy --frames 3 --threads 1 --out " + out).exit_code,
+            0);
+  std::string last;  // info decodes the first and the last pair
+  for (const auto& entry : fs::directory_iterator(out + "/mav0/cam1/data")) {
+    last = std::max(last, entry.path().string());
+  }
+  ASSERT_FALSE(last.empty());
+  testing::WriteFile(last, "garbage");
+  RunResult r = RunMavSim("info " + out);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("DATA_LOSS"), std::string::npos) << r.output;
+  testing::WriteFile(out + "/mav0/imu0/data.csv", "#timestamp\n1,2,3\n");
+  r = RunMavSim("info " + out);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("imu0/data.csv:2: expected 7 columns"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace mav::dataset

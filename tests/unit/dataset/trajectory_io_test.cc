@@ -1,0 +1,195 @@
+#include "mav/dataset/trajectory_io.h"
+
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+
+namespace mav::dataset {
+namespace {
+
+using testing::ReadFile;
+using testing::TempDir;
+using testing::WriteFile;
+
+Eigen::Quaterniond RandomQuaternion(std::mt19937* rng, bool fixed_point) {
+  std::normal_distribution<double> n;
+  while (true) {
+    const Eigen::Quaterniond q =
+        Eigen::Quaterniond(n(*rng), n(*rng), n(*rng), n(*rng)).normalized();
+    // A fixed point of SE3's renormalisation round-trips bit for bit (see trajectory_io.h).
+    if (!fixed_point || q.normalized().coeffs() == q.coeffs()) return q;
+  }
+}
+
+std::vector<StampedPose> RandomPoses(int count, bool fixed_point, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n;
+  std::uniform_int_distribution<int64_t> step(1, 90'000'000);
+  std::vector<StampedPose> poses(count);
+  int64_t t = 1403715273262142976;
+  for (int i = 0; i < count; ++i) {
+    t += step(rng);
+    poses[i].t_ns = t;
+    poses[i].T_world_body = geometry::SE3(RandomQuaternion(&rng, fixed_point),
+                                          Eigen::Vector3d(n(rng), n(rng), n(rng)) * 10.0);
+  }
+  return poses;
+}
+
+TEST(Tum, RoundTripIsExact) {
+  TempDir dir;
+  const std::string path = dir.path() + "/traj.txt";
+  const std::vector<StampedPose> poses = RandomPoses(500, /*fixed_point=*/true, 1);
+  ASSERT_TRUE(WriteTumTrajectory(path, poses).ok());
+  auto read = ReadTumTrajectory(path);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ASSERT_EQ(read->size(), poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_EQ((*read)[i].t_ns, poses[i].t_ns);
+    EXPECT_EQ((*read)[i].T_world_body.Translation(), poses[i].T_world_body.Translation());
+    EXPECT_EQ((*read)[i].T_world_body.Rotation().coeffs(),
+              poses[i].T_world_body.Rotation().coeffs());
+  }
+  // Rewriting what was read gives the same bytes.
+  ASSERT_TRUE(WriteTumTrajectory(path + "2", *read).ok());
+  EXPECT_EQ(ReadFile(path), ReadFile(path + "2"));
+}
+
+TEST(Tum, ArbitraryQuaternionsWithinOneUlp) {
+  TempDir dir;
+  const std::string path = dir.path() + "/traj.txt";
+  const std::vector<StampedPose> poses = RandomPoses(2000, /*fixed_point=*/false, 2);
+  ASSERT_TRUE(WriteTumTrajectory(path, poses).ok());
+  auto read = ReadTumTrajectory(path);
+  ASSERT_TRUE(read.ok());
+  ASSERT_EQ(read->size(), poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_EQ((*read)[i].t_ns, poses[i].t_ns);
+    EXPECT_EQ((*read)[i].T_world_body.Translation(), poses[i].T_world_body.Translation());
+    const Eigen::Vector4d d =
+        (*read)[i].T_world_body.Rotation().coeffs() - poses[i].T_world_body.Rotation().coeffs();
+    EXPECT_LE(d.cwiseAbs().maxCoeff(), 2.3e-16);
+  }
+}
+
+TEST(Tum, TimestampsAreWrittenWithNineDecimals) {
+  TempDir dir;
+  const std::string path = dir.path() + "/traj.txt";
+  std::vector<StampedPose> poses(3);
+  poses[0].t_ns = -1'500'000'000;
+  poses[1].t_ns = 5;
+  poses[2].t_ns = 1403715273262142976;
+  ASSERT_TRUE(WriteTumTrajectory(path, poses).ok());
+  const std::string text = ReadFile(path);
+  EXPECT_NE(text.find("\n-1.500000000 0 0 0 0 0 0 1\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("\n0.000000005 "), std::string::npos) << text;
+  EXPECT_NE(text.find("\n1403715273.262142976 "), std::string::npos) << text;
+  auto read = ReadTumTrajectory(path);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  EXPECT_EQ((*read)[0].t_ns, -1'500'000'000);
+  EXPECT_EQ((*read)[1].t_ns, 5);
+  EXPECT_EQ((*read)[2].t_ns, 1403715273262142976);
+}
+
+TEST(Tum, ReadsOtherToolsSpelling) {
+  TempDir dir;
+  const std::string path = dir.path() + "/traj.txt";
+  WriteFile(path,
+            "# written by some other tool\n"
+            "\n"
+            "1403715273.26   1.0\t2.0 3.0 0 0 0 1\r\n"
+            "   # indented comment\n"
+            "1.4037152733e9 1 2 3 0 0 0.7071067811865476 0.7071067811865476\n");
+  auto read = ReadTumTrajectory(path);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ASSERT_EQ(read->size(), 2u);
+  EXPECT_EQ((*read)[0].t_ns, 1403715273260000000);
+  EXPECT_EQ((*read)[0].T_world_body.Translation(), Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ((*read)[1].t_ns, 1403715273300000000);
+  EXPECT_NEAR((*read)[1].T_world_body.Rotation().z(), std::sqrt(0.5), 1e-15);
+}
+
+TEST(Tum, BadInputNamesLineAndField) {
+  TempDir dir;
+  const std::string path = dir.path() + "/traj.txt";
+  EXPECT_EQ(ReadTumTrajectory(path).status().code(), StatusCode::kNotFound);
+
+  WriteFile(path, "# header\n1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 x 0 1\n");
+  Status s = ReadTumTrajectory(path).status();
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find(path + ":3: column 'qy'"), std::string::npos) << s.message();
+
+  WriteFile(path, "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 1\n");
+  s = ReadTumTrajectory(path).status();
+  EXPECT_NE(s.message().find(path + ":2: expected 8 columns, got 7"), std::string::npos)
+      << s.message();
+
+  WriteFile(path, "1.0 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n");
+  s = ReadTumTrajectory(path).status();
+  EXPECT_NE(s.message().find(path + ":2: timestamp"), std::string::npos) << s.message();
+
+  WriteFile(path, "1.0 0 0 0 0 0 0 0\n");
+  s = ReadTumTrajectory(path).status();
+  EXPECT_NE(s.message().find("zero norm"), std::string::npos) << s.message();
+
+  WriteFile(path, "1.0.0 0 0 0 0 0 0 1\n");
+  s = ReadTumTrajectory(path).status();
+  EXPECT_NE(s.message().find("column 'timestamp'"), std::string::npos) << s.message();
+}
+
+TEST(Kitti, MatricesRoundTripExactlyAndRewriteIsByteIdentical) {
+  TempDir dir;
+  const std::string path = dir.path() + "/poses.txt";
+  const std::vector<StampedPose> stamped = RandomPoses(300, /*fixed_point=*/false, 3);
+  std::vector<geometry::SE3> poses;
+  for (const StampedPose& p : stamped) poses.push_back(p.T_world_body);
+  ASSERT_TRUE(WriteKittiTrajectory(path, poses).ok());
+
+  auto matrices = ReadKittiMatrices(path);
+  ASSERT_TRUE(matrices.ok()) << matrices.status().ToString();
+  ASSERT_EQ(matrices->size(), poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_EQ((*matrices)[i], poses[i].Matrix3x4()) << "pose " << i;
+  }
+  ASSERT_TRUE(WriteKittiMatrices(path + "2", *matrices).ok());
+  EXPECT_EQ(ReadFile(path), ReadFile(path + "2"));
+
+  // Through SE3 (which stores a quaternion): equal to within 1e-15 per matrix entry.
+  auto read = ReadKittiTrajectory(path);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ASSERT_EQ(read->size(), poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_EQ((*read)[i].Translation(), poses[i].Translation());
+    EXPECT_LE(((*read)[i].Matrix3x4() - poses[i].Matrix3x4()).cwiseAbs().maxCoeff(), 1e-15)
+        << "pose " << i;
+  }
+}
+
+TEST(Kitti, BadInput) {
+  TempDir dir;
+  const std::string path = dir.path() + "/poses.txt";
+  EXPECT_EQ(ReadKittiTrajectory(path).status().code(), StatusCode::kNotFound);
+
+  WriteFile(path, "1 0 0 0 0 1 0 0 0 0 1 0\n1 0 0 0 0 1 0 0 0 0 1\n");
+  Status s = ReadKittiTrajectory(path).status();
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find(path + ":2: expected 12 columns, got 11"), std::string::npos)
+      << s.message();
+
+  WriteFile(path, "1 0 0 0 0 1 nan? 0 0 0 1 0\n");
+  s = ReadKittiTrajectory(path).status();
+  EXPECT_NE(s.message().find(path + ":1: column 'r12'"), std::string::npos) << s.message();
+
+  WriteFile(path, "1 0 0 0 0 1 0 0 0 0 1 0\n2 0 0 0 0 1 0 0 0 0 1 0\n");
+  s = ReadKittiTrajectory(path).status();
+  EXPECT_NE(s.message().find("not a rotation"), std::string::npos) << s.message();
+  // The raw matrices are still readable.
+  EXPECT_TRUE(ReadKittiMatrices(path).ok());
+}
+
+}  // namespace
+}  // namespace mav::dataset

@@ -1,0 +1,86 @@
+// Mapping hot paths on the synthetic room (mav/mapping/synthetic_scene.h): 8 x 6 x 3 m, four
+// obstacles, keyframes on a loop, ~100 points per keyframe, up to 4 views per point, 1 cm noise.
+//   BM_BuildMesh/300: the full-room scale of the paper's data sets (214-432 keyframes).
+#include <benchmark/benchmark.h>
+
+#include "mav/mapping/collision_eval.h"
+#include "mav/mapping/delaunay_graph_cut.h"
+#include "mav/mapping/mesh_to_grid.h"
+#include "mav/mapping/synthetic_scene.h"
+
+namespace mav::mapping {
+namespace {
+
+struct Fixture {
+  SyntheticScene scene = MakeRoomScene();
+  std::vector<MapPoint> points;
+  std::vector<KeyframeView> keyframes;
+  GridGeometry geometry;
+
+  explicit Fixture(int num_keyframes) {
+    SyntheticObservationOptions options;
+    options.num_keyframes = num_keyframes;
+    SampleRoomObservations(scene, options, &points, &keyframes);
+    geometry.origin = Eigen::Vector3d(-0.2, -0.2, -0.2);
+    geometry.resolution = 0.05;
+    geometry.size = Eigen::Vector3i(168, 128, 68);
+  }
+};
+
+void BM_BuildMesh(benchmark::State& state) {
+  const Fixture f(static_cast<int>(state.range(0)));
+  MeshingStats stats;
+  for (auto _ : state) {
+    auto result = BuildMesh(f.points, f.keyframes);
+    benchmark::DoNotOptimize(result);
+    stats = result->stats;
+  }
+  state.counters["points"] = static_cast<double>(f.points.size());
+  state.counters["rays"] = static_cast<double>(stats.num_rays);
+  state.counters["cells"] = stats.num_finite_cells;
+  state.counters["t_triangulation_s"] = stats.seconds_triangulation;
+  state.counters["t_visibility_s"] = stats.seconds_visibility;
+  state.counters["t_graph_cut_s"] = stats.seconds_graph_cut;
+}
+BENCHMARK(BM_BuildMesh)->Arg(120)->Arg(300)->Unit(benchmark::kMillisecond);
+
+void BM_MeshToOccupancy(benchmark::State& state) {
+  const Fixture f(300);
+  const auto meshing = BuildMesh(f.points, f.keyframes);
+  for (auto _ : state) {
+    auto grid = MeshToOccupancy(*meshing, f.points, f.keyframes, f.geometry);
+    benchmark::DoNotOptimize(grid);
+  }
+}
+BENCHMARK(BM_MeshToOccupancy)->Unit(benchmark::kMillisecond);
+
+// The whole pipeline as mav-eval runs it, with the collision MCC as a counter.
+void BM_MeshGridEvaluate(benchmark::State& state) {
+  const Fixture f(300);
+  const VoxelGrid truth = f.scene.TruthGrid(f.geometry);
+  double mcc = 0.0;
+  for (auto _ : state) {
+    const auto meshing = BuildMesh(f.points, f.keyframes);
+    const auto grid = MeshToOccupancy(*meshing, f.points, f.keyframes, f.geometry);
+    const auto eval = EvaluateCollisions(truth, *grid);
+    mcc = eval->Mcc();
+  }
+  state.counters["mcc"] = mcc;
+}
+BENCHMARK(BM_MeshGridEvaluate)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+void BM_EvaluateCollisions(benchmark::State& state) {
+  const Fixture f(1);
+  const VoxelGrid truth = f.scene.TruthGrid(f.geometry);
+  for (auto _ : state) {
+    auto eval = EvaluateCollisions(truth, truth);
+    benchmark::DoNotOptimize(eval);
+  }
+  state.counters["voxels"] = static_cast<double>(truth.num_voxels());
+}
+BENCHMARK(BM_EvaluateCollisions)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace mav::mapping
+
+BENCHMARK_MAIN();

@@ -1,0 +1,253 @@
+#include "mav/mapping/mesh_to_grid.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <unordered_map>
+
+#include <Eigen/Dense>
+
+#include "mav/common/check.h"
+
+namespace mav::mapping {
+
+bool MeshToGridOptions::IsValid(std::string* /*why*/) const { return true; }
+
+GridGeometry GridGeometryAround(const std::vector<MapPoint>& points,
+                                const std::vector<KeyframeView>& keyframes, double resolution,
+                                double padding) {
+  MAV_CHECK(resolution > 0.0) << "resolution " << resolution;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const MapPoint& p : points) {
+    if (!p.p_world.allFinite()) continue;
+    lo = lo.cwiseMin(p.p_world);
+    hi = hi.cwiseMax(p.p_world);
+  }
+  for (const KeyframeView& k : keyframes) {
+    if (!k.center_world.allFinite()) continue;
+    lo = lo.cwiseMin(k.center_world);
+    hi = hi.cwiseMax(k.center_world);
+  }
+  if (!lo.allFinite()) {
+    lo.setZero();
+    hi.setZero();
+  }
+  lo.array() -= padding;
+  hi.array() += padding;
+  GridGeometry g;
+  g.resolution = resolution;
+  for (int a = 0; a < 3; ++a) {
+    g.origin[a] = std::floor(lo[a] / resolution) * resolution;
+    g.size[a] = std::max(1, static_cast<int>(std::ceil((hi[a] - g.origin[a]) / resolution)));
+  }
+  return g;
+}
+
+namespace {
+
+// Voxel index range [lo, hi] (inclusive) whose centres lie in the world box [min, max], clamped.
+bool CenterRange(const GridGeometry& g, const Eigen::Vector3d& min, const Eigen::Vector3d& max,
+                 Eigen::Vector3i* lo, Eigen::Vector3i* hi) {
+  for (int a = 0; a < 3; ++a) {
+    (*lo)[a] =
+        std::max(0, static_cast<int>(std::ceil((min[a] - g.origin[a]) / g.resolution - 0.5)));
+    (*hi)[a] = std::min(g.size[a] - 1,
+                        static_cast<int>(std::floor((max[a] - g.origin[a]) / g.resolution - 0.5)));
+    if ((*lo)[a] > (*hi)[a]) return false;
+  }
+  return true;
+}
+
+// Voxel index range [lo, hi] (inclusive) of voxels whose closed cubes touch the world box,
+// clamped; a box face on a voxel boundary touches the voxels on both sides.
+bool CubeRange(const GridGeometry& g, const Eigen::Vector3d& min, const Eigen::Vector3d& max,
+               Eigen::Vector3i* lo, Eigen::Vector3i* hi) {
+  constexpr double kTol = 1e-9;
+  for (int a = 0; a < 3; ++a) {
+    (*lo)[a] =
+        std::max(0, static_cast<int>(std::floor((min[a] - g.origin[a]) / g.resolution - kTol)));
+    (*hi)[a] = std::min(g.size[a] - 1,
+                        static_cast<int>(std::floor((max[a] - g.origin[a]) / g.resolution + kTol)));
+    if ((*lo)[a] > (*hi)[a]) return false;
+  }
+  return true;
+}
+
+void RasteriseTetrahedron(const Eigen::Vector3d v[4], VoxelState state, VoxelGrid* grid) {
+  const GridGeometry& g = grid->geometry();
+  Eigen::Matrix3d m;
+  m << v[1] - v[0], v[2] - v[0], v[3] - v[0];
+  const double det = m.determinant();
+  const double scale = (v[1] - v[0]).norm() * (v[2] - v[0]).norm() * (v[3] - v[0]).norm();
+  if (!(std::abs(det) > 1e-12 * scale)) return;  // flat: covers no voxel centre robustly
+  const Eigen::Matrix3d inv = m.inverse();
+  Eigen::Vector3d min = v[0], max = v[0];
+  for (int i = 1; i < 4; ++i) {
+    min = min.cwiseMin(v[i]);
+    max = max.cwiseMax(v[i]);
+  }
+  Eigen::Vector3i lo, hi;
+  if (!CenterRange(g, min, max, &lo, &hi)) return;
+  constexpr double kEps = 1e-9;
+  for (int k = lo.z(); k <= hi.z(); ++k) {
+    for (int j = lo.y(); j <= hi.y(); ++j) {
+      // Solve the x-interval of the row analytically: barycentric coordinates are affine in x.
+      const Eigen::Vector3d row0 = grid->CenterOf({lo.x(), j, k}) - v[0];
+      const Eigen::Vector3d b0 = inv * row0;
+      const Eigen::Vector3d db = inv.col(0) * g.resolution;
+      double t_lo = 0.0, t_hi = hi.x() - lo.x();
+      auto clip = [&](double value, double slope) {  // keep t with value + slope * t >= -eps
+        if (slope == 0.0) {
+          if (value < -kEps) t_hi = -1.0;
+        } else if (slope > 0.0) {
+          t_lo = std::max(t_lo, (-kEps - value) / slope);
+        } else {
+          t_hi = std::min(t_hi, (-kEps - value) / slope);
+        }
+      };
+      clip(b0.x(), db.x());
+      clip(b0.y(), db.y());
+      clip(b0.z(), db.z());
+      clip(1.0 - b0.sum(), -db.sum());
+      if (t_lo > t_hi) continue;
+      const int i0 = lo.x() + static_cast<int>(std::ceil(t_lo));
+      const int i1 = lo.x() + static_cast<int>(std::floor(t_hi));
+      for (int i = i0; i <= i1; ++i) (*grid)[grid->Linear(i, j, k)] = state;
+    }
+  }
+}
+
+// Separating-axis test of a triangle against an axis-aligned cube (centre c, half edge h).
+bool TriangleTouchesCube(const Eigen::Vector3d& c, double h, const Eigen::Vector3d& a,
+                         const Eigen::Vector3d& b, const Eigen::Vector3d& d) {
+  const Eigen::Vector3d v[3] = {a - c, b - c, d - c};
+  auto separated = [&](const Eigen::Vector3d& axis) {
+    const double p0 = axis.dot(v[0]), p1 = axis.dot(v[1]), p2 = axis.dot(v[2]);
+    const double r = h * axis.cwiseAbs().sum();
+    return std::min({p0, p1, p2}) > r || std::max({p0, p1, p2}) < -r;
+  };
+  for (int i = 0; i < 3; ++i) {
+    if (separated(Eigen::Vector3d::Unit(i))) return false;
+  }
+  const Eigen::Vector3d e[3] = {v[1] - v[0], v[2] - v[1], v[0] - v[2]};
+  if (separated(e[0].cross(e[1]))) return false;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const Eigen::Vector3d axis = e[i].cross(Eigen::Vector3d::Unit(j));
+      if (axis.squaredNorm() > 0.0 && separated(axis)) return false;
+    }
+  }
+  return true;
+}
+
+// Marks unknown voxels crossed by the segment from `from` to `to` as free, stopping one voxel
+// before `to` (Amanatides-Woo traversal).
+void CarveRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, VoxelGrid* grid) {
+  const GridGeometry& g = grid->geometry();
+  const Eigen::Vector3d d = to - from;
+  const double length = d.norm();
+  if (!(length > g.resolution)) return;
+  const double t_end = 1.0 - g.resolution / length;
+  Eigen::Vector3i idx = grid->IndexOf(from);
+  const Eigen::Vector3i last = grid->IndexOf(to);
+  Eigen::Vector3i step;
+  Eigen::Vector3d t_max, t_delta;
+  for (int a = 0; a < 3; ++a) {
+    if (d[a] > 0) {
+      step[a] = 1;
+      t_max[a] = (g.origin[a] + (idx[a] + 1) * g.resolution - from[a]) / d[a];
+      t_delta[a] = g.resolution / d[a];
+    } else if (d[a] < 0) {
+      step[a] = -1;
+      t_max[a] = (g.origin[a] + idx[a] * g.resolution - from[a]) / d[a];
+      t_delta[a] = -g.resolution / d[a];
+    } else {
+      step[a] = 0;
+      t_max[a] = std::numeric_limits<double>::infinity();
+      t_delta[a] = std::numeric_limits<double>::infinity();
+    }
+  }
+  double t = 0.0;
+  while (t < t_end && idx != last) {
+    if (grid->InBounds(idx)) {
+      VoxelState& s = (*grid)[grid->Linear(idx.x(), idx.y(), idx.z())];
+      if (s == VoxelState::kUnknown) s = VoxelState::kFree;
+    }
+    int a = 0;
+    if (t_max[1] < t_max[a]) a = 1;
+    if (t_max[2] < t_max[a]) a = 2;
+    t = t_max[a];
+    t_max[a] += t_delta[a];
+    idx[a] += step[a];
+  }
+}
+
+}  // namespace
+
+Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vector<MapPoint>& points,
+                                  const std::vector<KeyframeView>& keyframes,
+                                  const GridGeometry& geometry, const MeshToGridOptions& options) {
+  std::string why;
+  if (!geometry.IsValid(&why)) return Status::InvalidArgument("GridGeometry: " + why);
+  if (!options.IsValid(&why)) return Status::InvalidArgument("MeshToGridOptions: " + why);
+  const int num_points = static_cast<int>(meshing.points.size());
+  for (size_t t = 0; t < meshing.tetrahedra.size(); ++t) {
+    for (int i : meshing.tetrahedra[t].vertices) {
+      if (i < 0 || i >= num_points) {
+        return Status::InvalidArgument("meshing.tetrahedra[" + std::to_string(t) +
+                                       "]: vertex index " + std::to_string(i) +
+                                       " outside meshing.points");
+      }
+    }
+  }
+  VoxelGrid grid(geometry, VoxelState::kUnknown);
+  Eigen::Vector3d v[4];
+  for (int pass = 0; pass < 2; ++pass) {
+    const bool inside_pass = pass == 1;
+    for (const Tetrahedron& t : meshing.tetrahedra) {
+      if (t.inside != inside_pass) continue;
+      if (!inside_pass && options.free_requires_traversal && t.num_rays == 0) continue;
+      for (int i = 0; i < 4; ++i) v[i] = meshing.points[t.vertices[i]];
+      RasteriseTetrahedron(v, inside_pass ? VoxelState::kOccupied : VoxelState::kFree, &grid);
+    }
+  }
+  if (options.carve_lines_of_sight) {
+    std::unordered_map<int, Eigen::Vector3d> center_of;
+    for (const KeyframeView& k : keyframes) center_of[k.id] = k.center_world;
+    for (const MapPoint& p : points) {
+      for (int id : p.keyframes) {
+        const auto it = center_of.find(id);
+        if (it == center_of.end()) {
+          return Status::InvalidArgument("points: unknown keyframe id " + std::to_string(id));
+        }
+        CarveRay(it->second, p.p_world, &grid);
+      }
+    }
+  }
+  const double h = 0.5 * geometry.resolution * (1.0 + 1e-9);
+  const TriangleMesh& mesh = meshing.mesh;
+  for (const Eigen::Vector3i& tri : mesh.triangles) {
+    if (!options.occupy_surface_voxels) break;
+    const Eigen::Vector3d& a = mesh.vertices[tri[0]];
+    const Eigen::Vector3d& b = mesh.vertices[tri[1]];
+    const Eigen::Vector3d& c = mesh.vertices[tri[2]];
+    Eigen::Vector3i lo, hi;
+    if (!CubeRange(geometry, a.cwiseMin(b).cwiseMin(c), a.cwiseMax(b).cwiseMax(c), &lo, &hi)) {
+      continue;
+    }
+    for (int k = lo.z(); k <= hi.z(); ++k) {
+      for (int j = lo.y(); j <= hi.y(); ++j) {
+        for (int i = lo.x(); i <= hi.x(); ++i) {
+          VoxelState& s = grid[grid.Linear(i, j, k)];
+          if (s == VoxelState::kOccupied) continue;
+          if (TriangleTouchesCube(grid.CenterOf({i, j, k}), h, a, b, c)) s = VoxelState::kOccupied;
+        }
+      }
+    }
+  }
+  return grid;
+}
+
+}  // namespace mav::mapping

@@ -1,0 +1,109 @@
+#include "mav/mapping/mesh_to_grid.h"
+
+#include <gtest/gtest.h>
+
+namespace mav::mapping {
+namespace {
+
+// One inside tetrahedron spanning the unit corner: voxel centres with x + y + z <= 1 (all
+// coordinates positive) are occupied; the surface triangles touch the rest of its boundary cubes.
+TEST(MeshToOccupancyTest, SingleTetrahedron) {
+  MeshingResult m;
+  m.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  Tetrahedron t;
+  t.vertices = {0, 1, 2, 3};
+  t.inside = true;
+  m.tetrahedra.push_back(t);
+  GridGeometry g;
+  g.origin = Eigen::Vector3d(-0.5, -0.5, -0.5);
+  g.resolution = 0.1;
+  g.size = Eigen::Vector3i(20, 20, 20);
+  MeshToGridOptions options;
+  options.carve_lines_of_sight = false;
+  const auto grid = MeshToOccupancy(m, {}, {}, g, options);
+  ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+  int64_t expected = 0;
+  for (int k = 0; k < 20; ++k)
+    for (int j = 0; j < 20; ++j)
+      for (int i = 0; i < 20; ++i) {
+        const Eigen::Vector3d c = grid->CenterOf({i, j, k});
+        const bool in = (c.array() >= 0).all() && c.sum() <= 1.0;
+        expected += in;
+        if (in) {
+          ASSERT_EQ(grid->at({i, j, k}), VoxelState::kOccupied) << i << " " << j << " " << k;
+        } else {
+          ASSERT_EQ(grid->at({i, j, k}), VoxelState::kUnknown);
+        }
+      }
+  EXPECT_EQ(grid->Count(VoxelState::kOccupied), expected);
+  EXPECT_GT(expected, 100);
+}
+
+TEST(MeshToOccupancyTest, SurfaceTrianglesAndCarving) {
+  MeshingResult m;
+  m.points = {{0.02, 0.02, 0.5}, {0.98, 0.02, 0.5}, {0.02, 0.98, 0.5}};
+  m.mesh.vertices = m.points;
+  m.mesh.triangles = {{0, 1, 2}};
+  GridGeometry g;
+  g.origin = Eigen::Vector3d(0, 0, 0);
+  g.resolution = 0.1;
+  g.size = Eigen::Vector3i(10, 10, 10);
+  std::vector<MapPoint> points(1);
+  points[0].p_world = Eigen::Vector3d(0.55, 0.55, 0.05);
+  points[0].keyframes = {7};
+  std::vector<KeyframeView> keyframes(1);
+  keyframes[0].id = 7;
+  keyframes[0].center_world = Eigen::Vector3d(0.55, 0.55, 0.95);
+  MeshToGridOptions options;
+  options.occupy_surface_voxels = true;
+  const auto grid = MeshToOccupancy(m, points, keyframes, g, options);
+  ASSERT_TRUE(grid.ok());
+  // The plane z = 0.5 lies on a voxel boundary: both layers 4 and 5 touch the triangle.
+  EXPECT_EQ(grid->at({1, 1, 4}), VoxelState::kOccupied);
+  EXPECT_EQ(grid->at({1, 1, 5}), VoxelState::kOccupied);
+  EXPECT_EQ(grid->at({9, 9, 4}), VoxelState::kUnknown);  // beyond the hypotenuse
+  // The line of sight x = y = 0.55 from z = 0.95 down to 0.05 frees layers 9..1 (carving stops
+  // one voxel before the point); the voxel cubes (5, 5, 4/5) touch the triangle's hypotenuse
+  // x + y = 1 at their corner, so the surface rule re-occupies them.
+  EXPECT_EQ(grid->at({5, 5, 4}), VoxelState::kOccupied);
+  EXPECT_EQ(grid->at({5, 5, 1}), VoxelState::kFree);
+  EXPECT_EQ(grid->at({5, 5, 9}), VoxelState::kFree);
+  EXPECT_EQ(grid->at({5, 5, 2}), VoxelState::kFree);
+  EXPECT_EQ(grid->at({5, 5, 0}), VoxelState::kUnknown);  // the point's own voxel
+  EXPECT_EQ(grid->at({4, 5, 9}), VoxelState::kUnknown);
+}
+
+TEST(MeshToOccupancyTest, BadInput) {
+  MeshingResult m;
+  m.points = {{0, 0, 0}};
+  Tetrahedron t;
+  t.vertices = {0, 1, 2, 3};
+  m.tetrahedra.push_back(t);
+  GridGeometry g;
+  g.size = Eigen::Vector3i(4, 4, 4);
+  auto r = MeshToOccupancy(m, {}, {}, g);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("tetrahedra[0]"), std::string::npos);
+  g.resolution = -1;
+  r = MeshToOccupancy(MeshingResult{}, {}, {}, g);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("resolution"), std::string::npos);
+}
+
+TEST(GridGeometryAroundTest, CoversInputWithPadding) {
+  std::vector<MapPoint> points(2);
+  points[0].p_world = Eigen::Vector3d(0.03, -1.0, 2.0);
+  points[1].p_world = Eigen::Vector3d(1.0, 1.0, 2.5);
+  std::vector<KeyframeView> keyframes(1);
+  keyframes[0].center_world = Eigen::Vector3d(0.5, 0.0, 4.0);
+  const GridGeometry g = GridGeometryAround(points, keyframes, 0.05, 0.2);
+  EXPECT_NEAR(g.origin.x(), -0.2, 1e-9);
+  EXPECT_NEAR(g.origin.y(), -1.2, 1e-9);
+  EXPECT_NEAR(g.origin.z(), 1.8, 1e-9);
+  const Eigen::Vector3d top = g.origin + g.size.cast<double>() * g.resolution;
+  EXPECT_GE(top.x(), 1.2 - 1e-9);
+  EXPECT_GE(top.z(), 4.2 - 1e-9);
+}
+
+}  // namespace
+}  // namespace mav::mapping

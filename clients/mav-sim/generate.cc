@@ -18,7 +18,7 @@
 #include <opencv2/core.hpp>
 
 #include "commands.h"
-#include "flags.h"
+#include "mav/common/flags.h"
 #include "mav/common/file.h"
 #include "mav/common/progress.h"
 #include "mav/common/time.h"

@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "commands.h"
-#include "flags.h"
+#include "mav/common/flags.h"
 #include "mav/common/file.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"

@@ -13,7 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "commands.h"
-#include "flags.h"
+#include "mav/common/flags.h"
 #include "mav/common/file.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"

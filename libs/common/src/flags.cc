@@ -1,11 +1,11 @@
-#include "flags.h"
+#include "mav/common/flags.h"
 
 #include <algorithm>
 #include <sstream>
 
 #include "mav/common/parse.h"
 
-namespace mav::sim_cli {
+namespace mav {
 namespace {
 
 std::string DoubleText(double v) {
@@ -142,4 +142,4 @@ std::string FlagParser::Help() const {
   return out.str();
 }
 
-}  // namespace mav::sim_cli
+}  // namespace mav

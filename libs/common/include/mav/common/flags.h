@@ -1,5 +1,5 @@
 #pragma once
-// A small command-line flag parser for mav-sim's subcommands: "--name value" or "--name=value",
+// A small command-line flag parser shared by the command-line tools and services: "--name value" or "--name=value",
 // boolean switches without a value, positional arguments kept in order. Every error names the
 // flag: "--frames: 'ten' is not an integer", "unknown flag '--frame' (see --help)".
 
@@ -9,7 +9,7 @@
 
 #include "mav/common/status.h"
 
-namespace mav::sim_cli {
+namespace mav {
 
 class FlagParser {
  public:
@@ -48,4 +48,4 @@ class FlagParser {
   std::vector<Flag> flags_;
 };
 
-}  // namespace mav::sim_cli
+}  // namespace mav

@@ -24,6 +24,8 @@ namespace mav::sim {
 
 enum class VoxelState : uint8_t { kUnknown = 0, kFree = 1, kOccupied = 2 };
 
+class World;
+
 class OccupancyGrid {
  public:
   OccupancyGrid() = default;
@@ -60,5 +62,13 @@ class OccupancyGrid {
   Eigen::Vector3i size_ = Eigen::Vector3i::Zero();
   std::vector<VoxelState> states_;
 };
+
+// Exact ground-truth occupancy of a world (see world.h, Primitive::IntersectsBox, for the
+// precise rule per primitive type). The grid covers the world's bounds snapped outward to
+// multiples of `resolution` (so voxel centres coincide with OctoMap's voxel centres); a voxel is
+// kOccupied iff its cube intersects a solid primitive, else kFree if its centre lies inside the
+// world's bounds, else kUnknown. Cost: proportional to the voxels inside each primitive's
+// bounding box (not grid x primitives). MAV_CHECKs resolution > 0 and a grid below 2^31 voxels.
+OccupancyGrid ComputeOccupancy(const World& world, double resolution);
 
 }  // namespace mav::sim

@@ -1,0 +1,80 @@
+#pragma once
+// CPU ray-casting renderer for one camera of the simulated rig.
+//
+// Per camera, the viewing ray of every pixel is computed once from the camera model
+// (PinholeRadTan::Unproject, so the images carry the model's exact distortion) into a look-up
+// table, together with a bounding cone per 16 x 16 pixel tile. Per frame, the primitives whose
+// bounding spheres (long primitives are split into several) fall inside a tile's cone are
+// collected, and only those are intersected with the tile's rays, in float precision relative to
+// each primitive's centre. Shading: albedo (trilinearly filtered texture, texture.h) times the
+// world's lighting, plus emission. No shadows, no inter-reflections, no geometric
+// anti-aliasing (edges of primitives are sampled once per pixel centre).
+//
+// Rendering is const and allocation-free inside the pixel loops; a CameraRenderer can render
+// many frames concurrently from several threads.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mav/camera/pinhole.h"
+#include "mav/geometry/se3.h"
+#include "mav/sim/world.h"
+
+namespace cv {
+class Mat;
+}
+
+namespace mav::sim {
+
+class CameraRenderer {
+ public:
+  // The world must have its textures built (World::BuildTextures) and stay unchanged.
+  CameraRenderer(std::shared_ptr<const World> world, const camera::PinholeRadTan& camera);
+  ~CameraRenderer();
+  CameraRenderer(CameraRenderer&&) noexcept;
+  CameraRenderer& operator=(CameraRenderer&&) noexcept;
+
+  const camera::PinholeRadTan& camera() const;
+  int width() const;
+  int height() const;
+
+  // Scene radiance per pixel (row-major, width*height; 1.0 = a white surface under full light)
+  // seen from T_world_cam. `range` (optional) receives the distance along the ray in metres
+  // (+infinity where nothing was hit).
+  void RenderRadiance(const geometry::SE3& T_world_cam, std::vector<float>* radiance,
+                      std::vector<float>* range = nullptr) const;
+
+  // Sub-frame integration for motion blur: the mean of RenderRadiance over the given poses
+  // (sampled uniformly over the shutter interval by the caller).
+  void RenderIntegrated(const std::vector<geometry::SE3>& T_world_cam_samples,
+                        std::vector<float>* radiance) const;
+
+  // Motion blur by reprojection (the fast alternative to RenderIntegrated): `sharp` and `range`
+  // were rendered at T_world_cam_mid (mid-shutter). Each pixel's surface point (ray * range) is
+  // projected, with the camera model, into the cameras at shutter open and close; the blurred
+  // value is the mean of `sharp` sampled (bilinearly) along the resulting image-motion segment,
+  // i.e. the sub-frame integral for a static scene with motion linear over the shutter. Up to
+  // `max_samples` samples, about one per pixel of motion. Approximate at occlusion boundaries
+  // (the hidden background is not known).
+  void BlurByReprojection(const std::vector<float>& sharp, const std::vector<float>& range,
+                          const geometry::SE3& T_world_cam_mid,
+                          const geometry::SE3& T_world_cam_open,
+                          const geometry::SE3& T_world_cam_close, int max_samples,
+                          std::vector<float>* blurred) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Image formation: v = round(clamp(255 * gain * radiance + n, 0, 255)) with n ~ N(0, sigma^2)
+// approximated by a scaled sum of four uniforms (Irwin-Hall), drawn from a counter-based hash of
+// (noise_key, pixel index): deterministic and independent of thread scheduling.
+// Writes a CV_8UC1 image of width x height.
+void FormImage(const std::vector<float>& radiance, int width, int height, double gain,
+               double noise_sigma, uint64_t noise_key, cv::Mat* image);
+
+}  // namespace mav::sim

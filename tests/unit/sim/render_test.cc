@@ -1,0 +1,273 @@
+// Renderer tests: geometric accuracy of the rendered images (a known checkerboard), texture
+// stability, and determinism of the scenario's images.
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "mav/camera/rectifier.h"
+#include "mav/camera/stereo.h"
+#include "mav/sim/renderer.h"
+#include "mav/sim/scenario.h"
+#include "mav/sim/world.h"
+
+namespace mav::sim {
+namespace {
+
+constexpr double kSquare = 0.09;              // metres
+constexpr int kSquaresX = 10, kSquaresY = 8;  // inner corners 9 x 7
+const cv::Size kPattern(kSquaresX - 1, kSquaresY - 1);
+
+struct CheckerScene {
+  std::shared_ptr<World> world;
+  Eigen::Matrix3d R_world_board;
+  Eigen::Vector3d board_center;
+  std::vector<Eigen::Vector3d> corners_world;
+};
+
+// A checkerboard 2.2 m in front of a camera at the world origin looking along +z, tilted by
+// 20 degrees about the vertical and 10 about the horizontal axis, on a white frame.
+CheckerScene MakeCheckerScene() {
+  CheckerScene s;
+  s.world = std::make_shared<World>();
+  Material checker;
+  checker.pattern = TexturePattern::kChecker;
+  checker.checker_square_m = static_cast<float>(kSquare);
+  const int checker_id = s.world->AddMaterial(checker);
+  Material white;
+  white.pattern = TexturePattern::kUniform;
+  white.albedo = 0.9f;
+  const int white_id = s.world->AddMaterial(white);
+  Material grey;
+  grey.pattern = TexturePattern::kNoise;
+  grey.albedo = 0.35f;
+  grey.contrast = 0.05f;
+  const int grey_id = s.world->AddMaterial(grey);
+
+  // Board normal (local z) points back at the camera.
+  const Eigen::Matrix3d flip = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  s.R_world_board = Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+                    Eigen::AngleAxisd(0.17, Eigen::Vector3d::UnitX()).toRotationMatrix() * flip;
+  s.board_center = Eigen::Vector3d(0.1, 0.05, 2.3);
+  s.world->AddRectangle(s.board_center, s.R_world_board,
+                        Eigen::Vector2d(kSquaresX * kSquare / 2, kSquaresY * kSquare / 2),
+                        checker_id);
+  s.world->AddRectangle(s.board_center - 0.01 * s.R_world_board.col(2), s.R_world_board,
+                        Eigen::Vector2d(0.65, 0.55), white_id);
+  s.world->AddAlignedBox(Eigen::Vector3d(-10, -10, 6), Eigen::Vector3d(10, 10, 6.5), grey_id);
+  s.world->BuildTextures(7);
+  for (int j = 1; j < kSquaresY; ++j) {
+    for (int i = 1; i < kSquaresX; ++i) {
+      const Eigen::Vector3d local((i - kSquaresX / 2.0) * kSquare, (j - kSquaresY / 2.0) * kSquare,
+                                  0);
+      s.corners_world.push_back(s.board_center + s.R_world_board * local);
+    }
+  }
+  return s;
+}
+
+cv::Mat Render(const CameraRenderer& renderer, const geometry::SE3& T_world_cam) {
+  std::vector<float> radiance;
+  renderer.RenderRadiance(T_world_cam, &radiance);
+  cv::Mat image;
+  FormImage(radiance, renderer.width(), renderer.height(), 1.0, 0.0, 0, &image);
+  return image;
+}
+
+std::vector<cv::Point2f> FindCorners(const cv::Mat& image) {
+  std::vector<cv::Point2f> corners;
+  if (!cv::findChessboardCorners(image, kPattern, corners,
+                                 cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE)) {
+    return {};
+  }
+  cv::cornerSubPix(image, corners, cv::Size(6, 6), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
+  return corners;
+}
+
+// Index of the detection nearest to `uv` and its distance.
+std::pair<int, double> Nearest(const std::vector<cv::Point2f>& found, const Eigen::Vector2d& uv) {
+  int best = -1;
+  double best_d = 1e9;
+  for (size_t k = 0; k < found.size(); ++k) {
+    const double d = std::hypot(found[k].x - uv.x(), found[k].y - uv.y());
+    if (d < best_d) {
+      best_d = d;
+      best = static_cast<int>(k);
+    }
+  }
+  return {best, best_d};
+}
+
+TEST(RenderTest, CheckerCornersProjectExactlyAndRectifiedDisparityMatchesDepth) {
+  const CheckerScene scene = MakeCheckerScene();
+  const camera::StereoCalibration calib = camera::EurocStereoCalibration();
+  // cam0 at the world origin: T_world_body = T_body_cam0^-1.
+  const geometry::SE3 T_world_body = calib.T_body_cam0.Inverse();
+  const geometry::SE3 T_world_cam[2] = {T_world_body * calib.T_body_cam0,
+                                        T_world_body * calib.T_body_cam1};
+  const camera::PinholeRadTan cams[2] = {calib.cam0, calib.cam1};
+  cv::Mat raw[2];
+  for (int c = 0; c < 2; ++c) {
+    CameraRenderer renderer(scene.world, cams[c]);
+    raw[c] = Render(renderer, T_world_cam[c]);
+    const std::vector<cv::Point2f> found = FindCorners(raw[c]);
+    ASSERT_EQ(found.size(), scene.corners_world.size()) << "camera " << c;
+    double max_err = 0;
+    std::vector<int> used(found.size(), 0);
+    for (const Eigen::Vector3d& p_world : scene.corners_world) {
+      const std::optional<Eigen::Vector2d> uv = cams[c].Project(T_world_cam[c].Inverse() * p_world);
+      ASSERT_TRUE(uv.has_value());
+      const auto [k, d] = Nearest(found, *uv);
+      ++used[k];
+      max_err = std::max(max_err, d);
+    }
+    EXPECT_LT(max_err, 0.5) << "camera " << c;
+    std::printf("camera %d: max corner error %.3f px\n", c, max_err);
+    EXPECT_EQ(*std::max_element(used.begin(), used.end()), 1) << "ambiguous corner matches";
+    RecordProperty(c == 0 ? "max_err_cam0_px" : "max_err_cam1_px", std::to_string(max_err));
+  }
+
+  Result<camera::StereoRectifier> rectifier = camera::StereoRectifier::Create(calib);
+  ASSERT_TRUE(rectifier.ok()) << rectifier.status().ToString();
+  cv::Mat rect[2];
+  ASSERT_TRUE(rectifier->Rectify(raw[0], raw[1], &rect[0], &rect[1]).ok());
+  const std::vector<cv::Point2f> left = FindCorners(rect[0]);
+  const std::vector<cv::Point2f> right = FindCorners(rect[1]);
+  ASSERT_EQ(left.size(), scene.corners_world.size());
+  ASSERT_EQ(right.size(), scene.corners_world.size());
+  const camera::RectifiedStereo& rs = rectifier->rectified();
+  double max_disp_err = 0, max_row_err = 0;
+  for (const Eigen::Vector3d& p_world : scene.corners_world) {
+    const Eigen::Vector3d p_rect0 =
+        rectifier->R_rect0_cam0() * (T_world_cam[0].Inverse() * p_world);
+    const Eigen::Vector2d uv_l = *rs.ProjectLeft(p_rect0);
+    const Eigen::Vector2d uv_r = *rs.ProjectRight(p_rect0);
+    const auto [kl, dl] = Nearest(left, uv_l);
+    const auto [kr, dr] = Nearest(right, uv_r);
+    ASSERT_LT(dl, 1.0);
+    ASSERT_LT(dr, 1.0);
+    const double disparity = left[kl].x - right[kr].x;
+    max_disp_err = std::max(max_disp_err, std::abs(disparity - rs.fx * rs.baseline / p_rect0.z()));
+    max_row_err = std::max(max_row_err, static_cast<double>(std::abs(left[kl].y - right[kr].y)));
+  }
+  EXPECT_LT(max_disp_err, 0.25);
+  EXPECT_LT(max_row_err, 0.25);
+  RecordProperty("max_disparity_err_px", std::to_string(max_disp_err));
+  std::printf("max disparity error %.3f px, max row error %.3f px\n", max_disp_err, max_row_err);
+}
+
+TEST(RenderTest, TextureIsStableUnderTinyMotion) {
+  // Looking at a textured wall and floor from 1.5-4 m: a 1 mm sideways move changes the image
+  // by a small fraction of a grey level on average, and nowhere by a jump (no shimmer).
+  auto world = std::make_shared<World>();
+  Material noise;
+  noise.pattern = TexturePattern::kSpeckle;
+  noise.contrast = 0.25f;
+  const int m = world->AddMaterial(noise);
+  Material bricks;
+  bricks.pattern = TexturePattern::kBricks;
+  const int b = world->AddMaterial(bricks);
+  world->AddAlignedBox(Eigen::Vector3d(-5, -5, 4), Eigen::Vector3d(5, 5, 4.2), m);    // ahead
+  world->AddAlignedBox(Eigen::Vector3d(-5, 1.0, -5), Eigen::Vector3d(5, 1.2, 5), b);  // below
+  world->BuildTextures(3);
+  CameraRenderer renderer(world, camera::EurocCam0());
+  // Slightly rotated so that the texture is seen obliquely and not texel-aligned.
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.2, Eigen::Vector3d(0.3, 1, 0.1).normalized()));
+  auto pose = [&](double dx) { return geometry::SE3(q, Eigen::Vector3d(0.01 + dx, 0.02, 0.0)); };
+  const cv::Mat ia = Render(renderer, pose(0));
+  auto mean_diff = [&](double dx, cv::Mat* diff) {
+    cv::absdiff(ia, Render(renderer, pose(dx)), *diff);
+    return cv::mean(*diff)[0];
+  };
+  cv::Mat diff1, diff2;
+  const double mean1 = mean_diff(0.001, &diff1);
+  const double mean2 = mean_diff(0.002, &diff2);
+  std::printf("mean |diff| 1 mm: %.3f DN, 2 mm: %.3f DN\n", mean1, mean2);
+  // A filtered texture changes smoothly: the change grows linearly with the motion (aliasing
+  // would make even a tiny motion flip texels at random, giving a ratio near 1).
+  EXPECT_LT(mean1, 1.0);
+  EXPECT_LT(mean1 / mean2, 0.7);
+  // Texture gradients are limited by the filtering; only geometric edges can jump.
+  EXPECT_LT(cv::countNonZero(diff1 > 8), 0.002 * diff1.total());
+  // The images are textured (the test would pass trivially on a blank image).
+  cv::Scalar mu, sigma;
+  cv::meanStdDev(ia, mu, sigma);
+  EXPECT_GT(sigma[0], 8.0);
+}
+
+TEST(RenderTest, ScenarioImagesAreDeterministicAndSeedDependent) {
+  ScenarioOptions o;
+  o.preset = "room-hard";
+  o.frames = 40;
+  o.seed = 5;
+  Result<Scenario> s1 = Scenario::Create(o);
+  ASSERT_TRUE(s1.ok()) << s1.status().ToString();
+  Result<Scenario> s2 = Scenario::Create(o);
+  ASSERT_TRUE(s2.ok());
+  cv::Mat l1, r1, l2, r2;
+  s1->RenderStereo(17, &l1, &r1);
+  s2->RenderStereo(17, &l2, &r2);
+  ASSERT_EQ(l1.type(), CV_8UC1);
+  EXPECT_EQ(l1.cols, 752);
+  EXPECT_EQ(l1.rows, 480);
+  EXPECT_EQ(cv::norm(l1, l2, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(r1, r2, cv::NORM_INF), 0);
+  // Same scenario, different frame: different noise and pose.
+  cv::Mat l3, r3;
+  s1->RenderStereo(18, &l3, &r3);
+  EXPECT_GT(cv::norm(l1, l3, cv::NORM_L1), 0);
+
+  o.seed = 6;
+  Result<Scenario> s3 = Scenario::Create(o);
+  ASSERT_TRUE(s3.ok());
+  cv::Mat l4, r4;
+  s3->RenderStereo(17, &l4, &r4);
+  EXPECT_GT(cv::norm(l1, l4, cv::NORM_L1), 0);
+}
+
+TEST(RenderTest, NoiseDependsOnSeedOnly) {
+  // Same radiance, different noise keys: different images with the configured spread.
+  std::vector<float> radiance(752 * 480, 0.4f);
+  cv::Mat a, b, c;
+  FormImage(radiance, 752, 480, 1.0, 3.0, 11, &a);
+  FormImage(radiance, 752, 480, 1.0, 3.0, 11, &b);
+  FormImage(radiance, 752, 480, 1.0, 3.0, 12, &c);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0);
+  EXPECT_GT(cv::norm(a, c, cv::NORM_L1), 0);
+  cv::Scalar mu, sigma;
+  cv::meanStdDev(a, mu, sigma);
+  EXPECT_NEAR(mu[0], 0.4 * 255, 0.1);
+  EXPECT_NEAR(sigma[0], std::sqrt(9.0 + 1.0 / 12), 0.1);  // noise + quantisation
+}
+
+TEST(RenderTest, UnknownPresetIsInvalidArgumentNamingPreset) {
+  ScenarioOptions o;
+  o.preset = "rom-easy";
+  Result<Scenario> s = Scenario::Create(o);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.status().message().find("preset"), std::string::npos);
+  EXPECT_NE(s.status().message().find("rom-easy"), std::string::npos);
+  EXPECT_NE(s.status().message().find("room-hard"), std::string::npos);
+}
+
+TEST(RenderTest, BadFrameCountIsInvalidArgumentNamingFrames) {
+  for (int64_t frames : {int64_t{-1}, int64_t{1} << 40}) {
+    ScenarioOptions o;
+    o.frames = frames;
+    Result<Scenario> s = Scenario::Create(o);
+    ASSERT_FALSE(s.ok());
+    EXPECT_EQ(s.status().code(), StatusCode::kInvalidArgument);
+    EXPECT_EQ(s.status().message().rfind("frames:", 0), 0u) << s.status().message();
+  }
+}
+
+}  // namespace
+}  // namespace mav::sim

@@ -1,0 +1,451 @@
+// mavctl: command-line client of the MAV stack's services (docs/services.md).
+//
+//   mavctl sim load --preset room-easy --frames 100 | --euroc DIR
+//   mavctl sim start --rate 1.0 | --fast  [--loop] [--wait-subscribers N]
+//   mavctl sim pause | sim step N | sim status | sim calibration
+//   mavctl sim occupancy --out FILE [--resolution 0.05] [--format bt|mavocc]
+//   mavctl health [--port P] [--service NAME]
+//   mavctl listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]
+//
+// Every RPC has a deadline (--timeout, default 10 s). Exit status: 0 success, 1 the call failed
+// (message on stderr names the address and the status), 2 usage error.
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+
+#include "mav/v1/simulator.grpc.pb.h"
+
+#include "clients/mavctl/listen.h"
+#include "mav/common/parse.h"
+#include "mav/common/time.h"
+#include "mav/transport/dds.h"
+#include "mav/transport/flags.h"
+#include "mav/transport/grpc_server.h"
+
+namespace {
+
+using mav::transport::FlagParser;
+
+constexpr int64_t kSimulatorPort = 50051;
+constexpr char kSimulatorPortEnv[] = "MAV_SIMULATOR_PORT";
+
+constexpr char kUsage[] =
+    "Usage: mavctl <command> [flags]   (mavctl <command> --help for its flags)\n"
+    "Commands:\n"
+    "  sim load --preset NAME [--frames N] [--seed S] [--rectified] | --euroc DIR\n"
+    "  sim start --rate FACTOR | --fast  [--loop] [--wait-subscribers N] [--wait-timeout S]\n"
+    "  sim pause\n"
+    "  sim step N\n"
+    "  sim status\n"
+    "  sim calibration\n"
+    "  sim occupancy --out FILE [--resolution M] [--format bt|mavocc]\n"
+    "  health [--port P] [--service NAME]\n"
+    "  listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]\n"
+    "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
+    "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
+
+struct Connection {
+  std::string address = "127.0.0.1";
+  int64_t port = kSimulatorPort;
+  double timeout_s = 10.0;
+
+  std::string Target() const { return address + ":" + std::to_string(port); }
+};
+
+void AddConnectionFlags(FlagParser* flags, Connection* connection) {
+  flags->AddString("address", &connection->address, "server address");
+  flags->AddInt("port", &connection->port,
+                "server port (env " + std::string(kSimulatorPortEnv) + ")");
+  flags->AddDouble("timeout", &connection->timeout_s, "deadline of each RPC, s");
+}
+
+// Parses the flags of a subcommand; exits 2 on usage errors.
+std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
+                                     const std::vector<std::string>& args,
+                                     bool allow_positional = false) {
+  std::vector<std::string> positional;
+  bool help = false;
+  const mav::Status status = flags->Parse(args, allow_positional ? &positional : nullptr, &help);
+  if (help) {
+    std::cout << flags->Usage();
+    std::exit(0);
+  }
+  if (!status.ok()) {
+    std::cerr << "mavctl: " << status.message() << "\n";
+    std::exit(2);
+  }
+  if (connection != nullptr) {
+    if (!flags->WasSet("port")) {
+      auto port = mav::transport::PortFromEnv(kSimulatorPortEnv, connection->port);
+      if (!port.ok()) {
+        std::cerr << "mavctl: " << port.status().message() << "\n";
+        std::exit(2);
+      }
+      connection->port = *port;
+    }
+    if (connection->port <= 0 || connection->port > 65535) {
+      std::cerr << "mavctl: --port: " << connection->port << " is outside [1, 65535]\n";
+      std::exit(2);
+    }
+    if (!(connection->timeout_s > 0.0) || !std::isfinite(connection->timeout_s)) {
+      std::cerr << "mavctl: --timeout: must be > 0 s\n";
+      std::exit(2);
+    }
+  }
+  return positional;
+}
+
+std::shared_ptr<grpc::Channel> Connect(const Connection& connection) {
+  return grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials());
+}
+
+void SetDeadline(const Connection& connection, grpc::ClientContext* context) {
+  context->set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::nanoseconds(mav::SecondsToNs(connection.timeout_s)));
+}
+
+const char* CodeName(grpc::StatusCode code) {
+  switch (code) {
+    case grpc::StatusCode::OK:
+      return "OK";
+    case grpc::StatusCode::CANCELLED:
+      return "CANCELLED";
+    case grpc::StatusCode::INVALID_ARGUMENT:
+      return "INVALID_ARGUMENT";
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      return "DEADLINE_EXCEEDED";
+    case grpc::StatusCode::NOT_FOUND:
+      return "NOT_FOUND";
+    case grpc::StatusCode::FAILED_PRECONDITION:
+      return "FAILED_PRECONDITION";
+    case grpc::StatusCode::OUT_OF_RANGE:
+      return "OUT_OF_RANGE";
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return "RESOURCE_EXHAUSTED";
+    case grpc::StatusCode::UNAVAILABLE:
+      return "UNAVAILABLE";
+    case grpc::StatusCode::INTERNAL:
+      return "INTERNAL";
+    case grpc::StatusCode::UNIMPLEMENTED:
+      return "UNIMPLEMENTED";
+    default:
+      return "ERROR";
+  }
+}
+
+int ReportRpcError(const Connection& connection, const std::string& rpc,
+                   const grpc::Status& status) {
+  if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
+    std::cerr << "mavctl: cannot connect to " << connection.Target() << " (" << rpc
+              << "): " << status.error_message() << "\n";
+  } else if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
+    std::cerr << "mavctl: no answer from " << connection.Target() << " to " << rpc << " within "
+              << connection.timeout_s << " s (--timeout)\n";
+  } else {
+    std::cerr << "mavctl: " << rpc << " at " << connection.Target()
+              << " failed: " << CodeName(status.error_code()) << ": " << status.error_message()
+              << "\n";
+  }
+  return 1;
+}
+
+const char* StateName(mav::v1::SimulatorState state) {
+  switch (state) {
+    case mav::v1::SIMULATOR_STATE_IDLE:
+      return "IDLE";
+    case mav::v1::SIMULATOR_STATE_LOADED:
+      return "LOADED";
+    case mav::v1::SIMULATOR_STATE_RUNNING:
+      return "RUNNING";
+    case mav::v1::SIMULATOR_STATE_PAUSED:
+      return "PAUSED";
+    case mav::v1::SIMULATOR_STATE_FINISHED:
+      return "FINISHED";
+    default:
+      return "UNSPECIFIED";
+  }
+}
+
+void PrintSummary(const mav::v1::ScenarioSummary& s) {
+  std::cout << "scenario:   " << s.name() << (s.is_preset() ? " (preset, seed " : " (EuRoC")
+            << (s.is_preset() ? std::to_string(s.seed()) + ")" : ")") << "\n"
+            << "frames:     " << s.frames() << " (" << s.image_width() << "x" << s.image_height()
+            << (s.rectified() ? ", rectified" : ", raw") << ", " << s.camera_rate_hz() << " Hz)\n"
+            << "imu:        " << s.imu_samples() << " samples at " << s.imu_rate_hz() << " Hz\n"
+            << "time:       " << s.start_t_ns() << " .. " << s.end_t_ns() << " ns (" << std::fixed
+            << std::setprecision(2) << mav::NsToSeconds(s.end_t_ns() - s.start_t_ns()) << " s)\n"
+            << "ground truth: " << (s.has_ground_truth() ? "yes" : "no") << ", occupancy "
+            << (s.has_ground_truth_occupancy() ? "yes" : "no") << "\n";
+  std::cout.unsetf(std::ios::fixed);
+}
+
+void PrintStatus(const mav::v1::SimulatorStatus& s) {
+  std::cout << "state:      " << StateName(s.state()) << "\n";
+  if (s.has_scenario()) PrintSummary(s.scenario());
+  std::cout << std::fixed << std::setprecision(2);
+  std::cout << "next frame: " << s.next_frame() << ", published: " << s.frames_published()
+            << " frames, " << s.imu_samples_published() << " imu, " << s.ground_truth_published()
+            << " ground truth\n"
+            << "pacing:     "
+            << (s.as_fast_as_subscribers()
+                    ? std::string("as fast as subscribers")
+                    : "real-time factor " + std::to_string(s.real_time_factor()))
+            << (s.loop() ? ", loop" : "") << "; achieved " << s.achieved_rate_hz() << " Hz\n"
+            << "dds:        domain " << s.dds_domain() << ", stereo subscribers "
+            << s.stereo_subscribers() << ", imu subscribers " << s.imu_subscribers() << "\n"
+            << "render:     mean " << s.render_ms().mean_ms() << " ms, p95 "
+            << s.render_ms().p95_ms() << " ms (" << s.render_ms().count() << ")\n"
+            << "publish:    mean " << s.publish_ms().mean_ms() << " ms, p95 "
+            << s.publish_ms().p95_ms() << " ms\n";
+  if (!s.last_error().empty()) std::cout << "last error: " << s.last_error() << "\n";
+  std::cout.unsetf(std::ios::fixed);
+}
+
+int SimCommand(const std::vector<std::string>& args) {
+  if (args.empty()) {
+    std::cerr << "mavctl: sim needs a subcommand: load|start|pause|step|status|calibration|"
+                 "occupancy\n";
+    return 2;
+  }
+  const std::string sub = args[0];
+  const std::vector<std::string> rest(args.begin() + 1, args.end());
+  Connection connection;
+  FlagParser flags("mavctl sim " + sub, "");
+  AddConnectionFlags(&flags, &connection);
+
+  if (sub == "load") {
+    std::string preset, euroc;
+    int64_t frames = 0, seed = 1;
+    bool rectified = false;
+    flags.AddString("preset", &preset, "preset name (room-easy|room-medium|room-hard|plant)");
+    flags.AddInt("frames", &frames, "stereo frames (0 = full preset)");
+    flags.AddInt("seed", &seed, "renderer/IMU seed");
+    flags.AddBool("rectified", &rectified, "ideal rectified pair instead of EuRoC's raw rig");
+    flags.AddString("euroc", &euroc, "EuRoC ASL directory on the server");
+    ParseOrExit(&flags, &connection, rest);
+    if (preset.empty() == euroc.empty()) {
+      std::cerr << "mavctl: sim load needs exactly one of --preset NAME or --euroc DIR\n";
+      return 2;
+    }
+    mav::v1::LoadScenarioRequest request;
+    if (!preset.empty()) {
+      request.mutable_preset()->set_name(preset);
+      request.mutable_preset()->set_frames(frames);
+      request.mutable_preset()->set_seed(static_cast<uint64_t>(seed));
+      request.mutable_preset()->set_rectified(rectified);
+    } else {
+      request.mutable_euroc()->set_directory(euroc);
+    }
+    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
+    grpc::ClientContext context;
+    SetDeadline(connection, &context);
+    mav::v1::LoadScenarioResponse response;
+    const grpc::Status status = stub->LoadScenario(&context, request, &response);
+    if (!status.ok()) return ReportRpcError(connection, "LoadScenario", status);
+    std::cout << "loaded\n";
+    PrintSummary(response.scenario());
+    return 0;
+  }
+  if (sub == "start") {
+    double rate = 0.0, wait_timeout = 0.0;
+    bool fast = false, loop = false;
+    int64_t wait_subscribers = 0;
+    flags.AddDouble("rate", &rate, "real-time factor (1.0 = 20 Hz frames)");
+    flags.AddBool("fast", &fast, "as fast as the stereo subscribers acknowledge");
+    flags.AddBool("loop", &loop, "restart from frame 0 after the last frame");
+    flags.AddInt("wait-subscribers", &wait_subscribers,
+                 "wait for this many stereo subscribers before the first frame");
+    flags.AddDouble("wait-timeout", &wait_timeout, "how long to wait for them, s (0 = 5 s)");
+    ParseOrExit(&flags, &connection, rest);
+    if (flags.WasSet("rate") == fast) {
+      std::cerr << "mavctl: sim start needs exactly one of --rate FACTOR or --fast\n";
+      return 2;
+    }
+    if (wait_subscribers < 0) {
+      std::cerr << "mavctl: --wait-subscribers: must be >= 0\n";
+      return 2;
+    }
+    mav::v1::SimulatorStartRequest request;
+    if (fast) {
+      request.set_as_fast_as_subscribers(true);
+    } else {
+      request.set_real_time_factor(rate);  // the server validates (> 0, finite)
+    }
+    request.set_loop(loop);
+    request.set_wait_for_subscribers(static_cast<uint32_t>(wait_subscribers));
+    request.set_wait_timeout_s(wait_timeout);
+    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
+    grpc::ClientContext context;
+    SetDeadline(connection, &context);
+    mav::v1::SimulatorStatus response;
+    const grpc::Status status = stub->Start(&context, request, &response);
+    if (!status.ok()) return ReportRpcError(connection, "Start", status);
+    PrintStatus(response);
+    return 0;
+  }
+  if (sub == "pause" || sub == "status") {
+    ParseOrExit(&flags, &connection, rest);
+    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
+    grpc::ClientContext context;
+    SetDeadline(connection, &context);
+    mav::v1::SimulatorStatus response;
+    const grpc::Status status =
+        sub == "pause" ? stub->Pause(&context, mav::v1::SimulatorPauseRequest(), &response)
+                       : stub->GetStatus(&context, mav::v1::SimulatorGetStatusRequest(), &response);
+    if (!status.ok())
+      return ReportRpcError(connection, sub == "pause" ? "Pause" : "GetStatus", status);
+    PrintStatus(response);
+    return 0;
+  }
+  if (sub == "step") {
+    const std::vector<std::string> positional = ParseOrExit(&flags, &connection, rest, true);
+    if (positional.size() != 1) {
+      std::cerr << "mavctl: sim step needs one argument N (frames)\n";
+      return 2;
+    }
+    auto n = mav::ParseInt64(positional[0], "step N");
+    if (!n.ok() || *n < 1 || *n > UINT32_MAX) {
+      std::cerr << "mavctl: step N: '" << positional[0] << "' is not a frame count >= 1\n";
+      return 2;
+    }
+    mav::v1::SimulatorStepRequest request;
+    request.set_frames(static_cast<uint32_t>(*n));
+    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
+    grpc::ClientContext context;
+    SetDeadline(connection, &context);
+    mav::v1::SimulatorStatus response;
+    const grpc::Status status = stub->Step(&context, request, &response);
+    if (!status.ok()) return ReportRpcError(connection, "Step", status);
+    PrintStatus(response);
+    return 0;
+  }
+  if (sub == "calibration") {
+    ParseOrExit(&flags, &connection, rest);
+    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
+    grpc::ClientContext context;
+    SetDeadline(connection, &context);
+    mav::v1::GetCalibrationResponse response;
+    const grpc::Status status =
+        stub->GetCalibration(&context, mav::v1::GetCalibrationRequest(), &response);
+    if (!status.ok()) return ReportRpcError(connection, "GetCalibration", status);
+    std::cout << response.DebugString();
+    return 0;
+  }
+  if (sub == "occupancy") {
+    std::string out, format = "bt";
+    double resolution = 0.05;
+    flags.AddString("out", &out, "output file");
+    flags.AddDouble("resolution", &resolution, "voxel edge, m");
+    flags.AddString("format", &format, "bt (OctoMap) or mavocc");
+    ParseOrExit(&flags, &connection, rest);
+    if (out.empty()) {
+      std::cerr << "mavctl: sim occupancy needs --out FILE\n";
+      return 2;
+    }
+    if (format != "bt" && format != "mavocc") {
+      std::cerr << "mavctl: --format: '" << format << "' is not bt|mavocc\n";
+      return 2;
+    }
+    mav::v1::GetGroundTruthOccupancyRequest request;
+    request.set_resolution_m(resolution);
+    request.set_format(format == "bt" ? mav::v1::OCCUPANCY_FORMAT_OCTOMAP_BT
+                                      : mav::v1::OCCUPANCY_FORMAT_MAVOCC);
+    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
+    grpc::ClientContext context;
+    SetDeadline(connection, &context);
+    auto reader = stub->GetGroundTruthOccupancy(&context, request);
+    std::string bytes;
+    mav::v1::OccupancyChunk chunk;
+    while (reader->Read(&chunk)) bytes += chunk.chunk().data();
+    const grpc::Status status = reader->Finish();
+    if (!status.ok()) return ReportRpcError(connection, "GetGroundTruthOccupancy", status);
+    std::ofstream file(out, std::ios::binary);
+    file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    if (!file) {
+      std::cerr << "mavctl: cannot write " << out << "\n";
+      return 1;
+    }
+    std::cout << "wrote " << out << " (" << bytes.size() << " bytes)\n";
+    return 0;
+  }
+  std::cerr << "mavctl: unknown sim subcommand '" << sub << "'\n" << kUsage;
+  return 2;
+}
+
+int HealthCommand(const std::vector<std::string>& args) {
+  Connection connection;
+  std::string service;
+  FlagParser flags("mavctl health", "grpc.health.v1 Check of a service");
+  AddConnectionFlags(&flags, &connection);
+  flags.AddString("service", &service, "service name (\"\" = the whole server)");
+  ParseOrExit(&flags, &connection, args);
+  auto result = mav::transport::CheckHealth(
+      Connect(connection), service,
+      std::chrono::milliseconds(static_cast<int64_t>(connection.timeout_s * 1000)));
+  if (!result.ok()) {
+    std::cerr << "mavctl: cannot check health of " << connection.Target() << ": "
+              << result.status().message() << "\n";
+    return 1;
+  }
+  std::cout << connection.Target() << (service.empty() ? "" : " " + service) << ": "
+            << mav::transport::HealthStatusName(*result) << "\n";
+  return *result == mav::transport::HealthStatus::kServing ? 0 : 1;
+}
+
+int ListenCommand(const std::vector<std::string>& args) {
+  mav::mavctl::ListenOptions options;
+  bool quiet = false;
+  FlagParser flags("mavctl listen",
+                   "Subscribes to the simulator's DDS streams, verifies every stereo frame's\n"
+                   "checksum and sequence number, and prints what arrived. Exit 0 when the\n"
+                   "target was reached with no missing or corrupt frame.");
+  flags.AddString("topic", &options.topic, "stereo|imu|ground_truth|all");
+  flags.AddInt("frames", &options.frames,
+               "stop after N stereo frames (samples for imu/ground_truth); 0 = until --timeout");
+  flags.AddDouble("timeout", &options.timeout_s, "give up after S seconds");
+  flags.AddBool("quiet", &quiet, "no progress lines");
+  mav::transport::AddDdsFlags(&flags, &options.dds);
+  ParseOrExit(&flags, nullptr, args);
+  if (const mav::Status s = mav::transport::ApplyDdsEnv(flags, &options.dds); !s.ok()) {
+    std::cerr << "mavctl: " << s.message() << "\n";
+    return 2;
+  }
+  options.progress = !quiet;
+  std::string why;
+  if (!options.IsValid(&why)) {
+    std::cerr << "mavctl: " << why << "\n";
+    return 2;
+  }
+  auto report = mav::mavctl::Listen(options, std::cerr);
+  if (!report.ok()) {
+    std::cerr << "mavctl: listen: " << report.status().ToString() << "\n";
+    return 1;
+  }
+  mav::mavctl::PrintReport(options, *report, std::cout);
+  return mav::mavctl::ReportPassed(options, *report) ? 0 : 1;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
+    std::cout << kUsage;
+    return argc < 2 ? 2 : 0;
+  }
+  const std::string command = argv[1];
+  const std::vector<std::string> args(argv + 2, argv + argc);
+  if (command == "sim") return SimCommand(args);
+  if (command == "health") return HealthCommand(args);
+  if (command == "listen") return ListenCommand(args);
+  std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
+  return 2;
+}

@@ -1,0 +1,40 @@
+#pragma once
+// mav.v1 simulator messages <-> the simulator's domain types (playback.h). Validation of request
+// fields happens here, with messages that start with the field path ("real_time_factor: ...").
+
+#include <string>
+
+#include "mav/v1/common.pb.h"
+#include "mav/v1/simulator.pb.h"
+
+#include "mav/camera/stereo.h"
+#include "mav/common/status.h"
+#include "mav/dataset/types.h"
+#include "services/simulator/playback.h"
+
+namespace mav::simulator {
+
+// Which scenario a LoadScenarioRequest asks for.
+struct LoadRequest {
+  bool is_preset = false;
+  PresetRequest preset;
+  std::string euroc_directory;
+};
+// InvalidArgument "source: ..." when neither preset nor euroc is set. Field values are checked
+// by OpenPreset/OpenEuroc.
+Result<LoadRequest> FromProto(const v1::LoadScenarioRequest& request);
+
+// InvalidArgument "real_time_factor: ..." (none/both, <= 0, not finite),
+// "as_fast_as_subscribers: ..." (set to false), "wait_timeout_s: ..." (< 0, not finite).
+Result<Pacing> FromProto(const v1::SimulatorStartRequest& request);
+
+void ToProto(const ScenarioInfo& info, v1::ScenarioSummary* out);
+void ToProto(const PlayerStatus& status, v1::SimulatorStatus* out);
+void ToProto(const Stats& stats, v1::RuntimeStats* out);
+void ToProto(const geometry::SE3& pose, v1::Pose* out);
+void ToProto(const camera::StereoCalibration& calibration, double rate_hz, bool rectified,
+             v1::StereoCalibration* out);
+void ToProto(const dataset::ImuNoise& noise, double rate_hz, v1::ImuNoise* out);
+v1::SimulatorState ToProto(PlayerState state);
+
+}  // namespace mav::simulator

@@ -1,0 +1,182 @@
+#include "services/simulator/dds_io.h"
+
+#include <cstring>
+
+#include <zlib.h>
+
+#include "mav/common/check.h"
+#include "mav/common/time.h"
+
+namespace mav::simulator {
+
+namespace {
+
+mav_dds_Vector3 ToDds(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+Eigen::Vector3d FromDds(const mav_dds_Vector3& v) { return {v.x, v.y, v.z}; }
+
+void CopyId(const char* id, char (&out)[33]) {
+  std::strncpy(out, id, sizeof(out) - 1);
+  out[sizeof(out) - 1] = '\0';
+}
+
+}  // namespace
+
+uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
+                     size_t right_size) {
+  uLong crc = crc32(0L, Z_NULL, 0);
+  crc = crc32_z(crc, left, left_size);
+  crc = crc32_z(crc, right, right_size);
+  return static_cast<uint32_t>(crc);
+}
+
+void FillStereoFrame(uint64_t sequence, const RenderedFrame& frame, bool rectified,
+                     int64_t publish_t_ns, mav_dds_StereoFrame* out) {
+  MAV_CHECK(frame.left.type() == CV_8UC1 && frame.right.type() == CV_8UC1)
+      << "stereo images must be CV_8UC1";
+  MAV_CHECK(frame.left.size() == frame.right.size()) << "left and right sizes differ";
+  MAV_CHECK(frame.left.isContinuous() && frame.right.isContinuous());
+  std::memset(out, 0, sizeof(*out));
+  out->rig_id = mav_dds_kDefaultRigId;
+  out->sequence_number = sequence;
+  out->t_ns = frame.t_ns;
+  out->publish_t_ns = publish_t_ns;
+  CopyId("cam0", out->left_camera_id);
+  CopyId("cam1", out->right_camera_id);
+  out->width = static_cast<uint32_t>(frame.left.cols);
+  out->height = static_cast<uint32_t>(frame.left.rows);
+  out->encoding = mav_dds_PIXEL_FORMAT_MONO8;
+  out->rectified = rectified;
+  const uint32_t n = out->width * out->height;
+  out->left._buffer = const_cast<uint8_t*>(frame.left.ptr<uint8_t>());
+  out->left._length = out->left._maximum = n;
+  out->left._release = false;
+  out->right._buffer = const_cast<uint8_t*>(frame.right.ptr<uint8_t>());
+  out->right._length = out->right._maximum = n;
+  out->right._release = false;
+  out->crc32 = StereoCrc32(out->left._buffer, n, out->right._buffer, n);
+}
+
+Status CheckStereoFrame(const mav_dds_StereoFrame& frame) {
+  const std::string where = "stereo frame " + std::to_string(frame.sequence_number) + ": ";
+  if (frame.encoding != mav_dds_PIXEL_FORMAT_MONO8) {
+    return Status::DataLoss(where + "encoding: expected MONO8");
+  }
+  const uint64_t expected = static_cast<uint64_t>(frame.width) * frame.height;
+  if (frame.width == 0 || frame.height == 0) return Status::DataLoss(where + "width/height: zero");
+  if (frame.left._length != expected) {
+    return Status::DataLoss(where + "left: " + std::to_string(frame.left._length) +
+                            " bytes, expected width*height = " + std::to_string(expected));
+  }
+  if (frame.right._length != expected) {
+    return Status::DataLoss(where + "right: " + std::to_string(frame.right._length) +
+                            " bytes, expected width*height = " + std::to_string(expected));
+  }
+  const uint32_t crc =
+      StereoCrc32(frame.left._buffer, frame.left._length, frame.right._buffer, frame.right._length);
+  if (crc != frame.crc32) {
+    return Status::DataLoss(where + "crc32: got " + std::to_string(frame.crc32) + ", computed " +
+                            std::to_string(crc));
+  }
+  return Status::Ok();
+}
+
+mav_dds_ImuSample ToDds(uint64_t sequence, const dataset::ImuSample& sample, int64_t publish_t_ns) {
+  mav_dds_ImuSample out{};
+  out.imu_id = mav_dds_kDefaultImuId;
+  out.sequence_number = sequence;
+  out.t_ns = sample.t_ns;
+  out.publish_t_ns = publish_t_ns;
+  out.gyro = ToDds(sample.gyro);
+  out.accel = ToDds(sample.accel);
+  return out;
+}
+
+mav_dds_GroundTruthState ToDds(uint64_t sequence, const dataset::GroundTruthState& state,
+                               int64_t publish_t_ns) {
+  mav_dds_GroundTruthState out{};
+  out.vehicle_id = mav_dds_kDefaultVehicleId;
+  out.sequence_number = sequence;
+  out.t_ns = state.t_ns;
+  out.publish_t_ns = publish_t_ns;
+  out.position = ToDds(state.T_world_body.Translation());
+  const Eigen::Quaterniond& q = state.T_world_body.Rotation();
+  out.orientation = {q.w(), q.x(), q.y(), q.z()};
+  out.velocity = ToDds(state.v_world);
+  out.gyro_bias = ToDds(state.gyro_bias);
+  out.accel_bias = ToDds(state.accel_bias);
+  return out;
+}
+
+dataset::ImuSample FromDds(const mav_dds_ImuSample& sample) {
+  dataset::ImuSample out;
+  out.t_ns = sample.t_ns;
+  out.gyro = FromDds(sample.gyro);
+  out.accel = FromDds(sample.accel);
+  return out;
+}
+
+dataset::GroundTruthState FromDds(const mav_dds_GroundTruthState& state) {
+  dataset::GroundTruthState out;
+  out.t_ns = state.t_ns;
+  const Eigen::Quaterniond q(state.orientation.w, state.orientation.x, state.orientation.y,
+                             state.orientation.z);
+  out.T_world_body = geometry::SE3(q, FromDds(state.position));
+  out.v_world = FromDds(state.velocity);
+  out.gyro_bias = FromDds(state.gyro_bias);
+  out.accel_bias = FromDds(state.accel_bias);
+  return out;
+}
+
+// ---- DdsStreamSink ----------------------------------------------------------------------------
+
+Result<std::unique_ptr<DdsStreamSink>> DdsStreamSink::Create(const transport::DdsOptions& options) {
+  using transport::Qos;
+  MAV_ASSIGN_OR_RETURN(transport::Participant participant, transport::Participant::Create(options));
+  MAV_ASSIGN_OR_RETURN(
+      StereoTopic stereo_topic,
+      StereoTopic::Create(participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
+  MAV_ASSIGN_OR_RETURN(ImuTopic imu_topic, ImuTopic::Create(participant, transport::kImuTopic,
+                                                            &mav_dds_ImuSample_desc));
+  MAV_ASSIGN_OR_RETURN(GtTopic gt_topic, GtTopic::Create(participant, transport::kGroundTruthTopic,
+                                                         &mav_dds_GroundTruthState_desc));
+  MAV_ASSIGN_OR_RETURN(auto stereo, transport::Writer<mav_dds_StereoFrame>::Create(
+                                        participant, stereo_topic, Qos::SensorStream()));
+  MAV_ASSIGN_OR_RETURN(auto imu, transport::Writer<mav_dds_ImuSample>::Create(
+                                     participant, imu_topic, Qos::HighRate()));
+  MAV_ASSIGN_OR_RETURN(auto gt, transport::Writer<mav_dds_GroundTruthState>::Create(
+                                    participant, gt_topic, Qos::State()));
+  return std::unique_ptr<DdsStreamSink>(
+      new DdsStreamSink(std::move(participant), std::move(stereo_topic), std::move(imu_topic),
+                        std::move(gt_topic), std::move(stereo), std::move(imu), std::move(gt)));
+}
+
+Status DdsStreamSink::PublishStereo(uint64_t sequence, const RenderedFrame& frame, bool rectified) {
+  mav_dds_StereoFrame sample;
+  FillStereoFrame(sequence, frame, rectified, WallNowNs(), &sample);
+  return stereo_.Write(sample);
+}
+
+Status DdsStreamSink::PublishImu(uint64_t sequence, const dataset::ImuSample& sample) {
+  return imu_.Write(ToDds(sequence, sample, WallNowNs()));
+}
+
+Status DdsStreamSink::PublishGroundTruth(uint64_t sequence,
+                                         const dataset::GroundTruthState& state) {
+  return gt_.Write(ToDds(sequence, state, WallNowNs()));
+}
+
+Status DdsStreamSink::WaitForStereoAcks(int64_t timeout_ns) {
+  return stereo_.WaitForAcks(timeout_ns);
+}
+
+uint32_t DdsStreamSink::StereoSubscribers() {
+  Result<uint32_t> n = stereo_.MatchedReaders();
+  return n.ok() ? *n : 0;
+}
+
+uint32_t DdsStreamSink::ImuSubscribers() {
+  Result<uint32_t> n = imu_.MatchedReaders();
+  return n.ok() ? *n : 0;
+}
+
+}  // namespace mav::simulator

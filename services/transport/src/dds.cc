@@ -1,0 +1,297 @@
+#include "mav/transport/dds.h"
+
+#include <chrono>
+#include <cstdlib>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "mav/common/parse.h"
+
+namespace mav::transport {
+
+namespace {
+
+// Keep in sync with deploy/cyclonedds.xml (that file explains each setting).
+constexpr char kLoopbackDdsConfig[] =
+    "<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\">"
+    "<General>"
+    "<Interfaces><NetworkInterface name=\"lo\" multicast=\"false\"/></Interfaces>"
+    "<AllowMulticast>false</AllowMulticast>"
+    "<MaxMessageSize>65500B</MaxMessageSize>"
+    "<FragmentSize>64000B</FragmentSize>"
+    "</General>"
+    "<Discovery>"
+    "<ParticipantIndex>auto</ParticipantIndex>"
+    "<MaxAutoParticipantIndex>32</MaxAutoParticipantIndex>"
+    "<Peers><Peer address=\"127.0.0.1\"/></Peers>"
+    "</Discovery>"
+    "<Internal>"
+    "<SocketReceiveBufferSize min=\"default\" max=\"4MiB\"/>"
+    "<SocketSendBufferSize min=\"default\" max=\"4MiB\"/>"
+    "<HeartbeatInterval>5ms</HeartbeatInterval>"
+    "<Watermarks><WhcHigh>4MiB</WhcHigh></Watermarks>"
+    "</Internal>"
+    "</Domain></CycloneDDS>";
+
+constexpr int64_t kMaxDomainId = 230;  // 7400 + 250 * id + offsets must stay below 65536
+
+}  // namespace
+
+Status DdsStatus(dds_return_t ret, const std::string& what) {
+  if (ret >= 0) return Status::Ok();
+  const std::string message = what + ": " + dds_strretcode(ret);
+  switch (ret) {
+    case DDS_RETCODE_BAD_PARAMETER:
+    case DDS_RETCODE_INCONSISTENT_POLICY:
+    case DDS_RETCODE_IMMUTABLE_POLICY:
+      return Status::InvalidArgument(message);
+    case DDS_RETCODE_PRECONDITION_NOT_MET:
+    case DDS_RETCODE_NOT_ENABLED:
+    case DDS_RETCODE_ILLEGAL_OPERATION:
+      return Status::FailedPrecondition(message);
+    case DDS_RETCODE_TIMEOUT:
+    case DDS_RETCODE_OUT_OF_RESOURCES:
+    case DDS_RETCODE_ALREADY_DELETED:
+      return Status::Unavailable(message);
+    default:
+      return Status::Internal(message);
+  }
+}
+
+const char* LoopbackDdsConfig() { return kLoopbackDdsConfig; }
+
+bool DdsOptions::IsValid(std::string* why) const {
+  if (domain < 0 || domain > kMaxDomainId) {
+    if (why != nullptr) {
+      *why = "dds domain: " + std::to_string(domain) + " is outside [0, " +
+             std::to_string(kMaxDomainId) + "]";
+    }
+    return false;
+  }
+  return true;
+}
+
+std::string DdsOptions::ResolvedConfig() const {
+  if (!config.empty()) {
+    if (config.front() == '<' || config.rfind("file://", 0) == 0) return config;
+    return "file://" + config;
+  }
+  if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri != nullptr && *uri != '\0') {
+    return uri;
+  }
+  return kLoopbackDdsConfig;
+}
+
+void AddDdsFlags(FlagParser* flags, DdsOptions* options) {
+  flags->AddInt("dds-domain", &options->domain, "DDS domain id, 0..230 (env MAV_DDS_DOMAIN)");
+  flags->AddString("dds-config", &options->config,
+                   "Cyclone DDS config: XML, file://PATH or PATH (default: env CYCLONEDDS_URI, "
+                   "else the built-in loopback config = deploy/cyclonedds.xml)");
+}
+
+Status ApplyDdsEnv(const FlagParser& flags, DdsOptions* options) {
+  if (!flags.WasSet("dds-domain")) {
+    if (const char* text = std::getenv("MAV_DDS_DOMAIN"); text != nullptr && *text != '\0') {
+      MAV_ASSIGN_OR_RETURN(options->domain,
+                           ParseInt64(text, "environment variable MAV_DDS_DOMAIN"));
+    }
+  }
+  std::string why;
+  if (!options->IsValid(&why)) return Status::InvalidArgument(why);
+  return Status::Ok();
+}
+
+// ---- Qos --------------------------------------------------------------------------------------
+
+Qos::Qos() : qos_(dds_create_qos()) {}
+Qos::~Qos() {
+  if (qos_ != nullptr) dds_delete_qos(qos_);
+}
+Qos::Qos(Qos&& other) noexcept : qos_(std::exchange(other.qos_, nullptr)) {}
+Qos& Qos::operator=(Qos&& other) noexcept {
+  if (this != &other) {
+    if (qos_ != nullptr) dds_delete_qos(qos_);
+    qos_ = std::exchange(other.qos_, nullptr);
+  }
+  return *this;
+}
+Qos& Qos::Reliable(int64_t max_blocking_ns) {
+  dds_qset_reliability(qos_, DDS_RELIABILITY_RELIABLE, max_blocking_ns);
+  return *this;
+}
+Qos& Qos::BestEffort() {
+  dds_qset_reliability(qos_, DDS_RELIABILITY_BEST_EFFORT, 0);
+  return *this;
+}
+Qos& Qos::KeepLast(int32_t depth) {
+  dds_qset_history(qos_, DDS_HISTORY_KEEP_LAST, depth);
+  return *this;
+}
+Qos& Qos::KeepAll() {
+  dds_qset_history(qos_, DDS_HISTORY_KEEP_ALL, DDS_LENGTH_UNLIMITED);
+  return *this;
+}
+Qos& Qos::Volatile() {
+  dds_qset_durability(qos_, DDS_DURABILITY_VOLATILE);
+  return *this;
+}
+Qos& Qos::TransientLocal() {
+  dds_qset_durability(qos_, DDS_DURABILITY_TRANSIENT_LOCAL);
+  return *this;
+}
+Qos Qos::SensorStream() {
+  Qos qos;
+  qos.Reliable(DDS_SECS(1)).KeepLast(4).Volatile();
+  return qos;
+}
+Qos Qos::HighRate() {
+  Qos qos;
+  qos.Reliable(DDS_SECS(1)).KeepLast(400).Volatile();
+  return qos;
+}
+Qos Qos::State() {
+  Qos qos;
+  qos.Reliable(DDS_SECS(1)).KeepLast(400).Volatile();
+  return qos;
+}
+Qos Qos::Command() {
+  Qos qos;
+  qos.BestEffort().KeepLast(1).Volatile();
+  return qos;
+}
+
+// ---- Entities ---------------------------------------------------------------------------------
+
+Entity::~Entity() {
+  // Errors are ignored on purpose: the parent may already have deleted this child.
+  if (handle_ > 0) dds_delete(handle_);
+}
+
+Entity& Entity::operator=(Entity&& other) noexcept {
+  if (this != &other) {
+    if (handle_ > 0) dds_delete(handle_);
+    handle_ = std::exchange(other.handle_, 0);
+  }
+  return *this;
+}
+
+// One dds_create_domain() per domain id and process, shared by that process's participants and
+// deleted with the last one (deleting a domain deletes all its participants).
+struct Participant::DomainRef {
+  dds_entity_t handle = 0;
+  ~DomainRef() {
+    if (handle > 0) dds_delete(handle);
+  }
+};
+
+Result<Participant> Participant::Create(const DdsOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return Status::InvalidArgument(why);
+  static std::mutex mutex;
+  static std::map<int64_t, std::weak_ptr<DomainRef>> domains;
+  std::lock_guard<std::mutex> lock(mutex);
+  std::shared_ptr<DomainRef> domain = domains[options.domain].lock();
+  if (domain == nullptr) {
+    const std::string config = options.ResolvedConfig();
+    const dds_entity_t handle =
+        dds_create_domain(static_cast<dds_domainid_t>(options.domain), config.c_str());
+    if (handle < 0) {
+      return DdsStatus(handle, "dds_create_domain(" + std::to_string(options.domain) +
+                                   ") with config '" + config.substr(0, 80) +
+                                   "' (see the Cyclone messages above)");
+    }
+    domain = std::make_shared<DomainRef>();
+    domain->handle = handle;
+    domains[options.domain] = domain;
+  }
+  const dds_entity_t participant =
+      dds_create_participant(static_cast<dds_domainid_t>(options.domain), nullptr, nullptr);
+  if (participant < 0) {
+    return DdsStatus(participant,
+                     "dds_create_participant(domain " + std::to_string(options.domain) + ")");
+  }
+  return Participant(std::move(domain), participant, options.domain);
+}
+
+namespace internal {
+
+Result<dds_entity_t> CreateTopic(const Participant& participant, const std::string& name,
+                                 const dds_topic_descriptor_t* descriptor) {
+  const dds_entity_t topic =
+      dds_create_topic(participant.handle(), descriptor, name.c_str(), nullptr, nullptr);
+  if (topic < 0) return DdsStatus(topic, "dds_create_topic(" + name + ")");
+  return topic;
+}
+
+Result<dds_entity_t> CreateWriter(const Participant& participant, dds_entity_t topic,
+                                  const Qos& qos, const std::string& name) {
+  const dds_entity_t writer = dds_create_writer(participant.handle(), topic, qos.get(), nullptr);
+  if (writer < 0) return DdsStatus(writer, "dds_create_writer(" + name + ")");
+  // Publication-matched is polled (MatchedReaders); enable it so the status is kept current.
+  (void)dds_set_status_mask(writer, DDS_PUBLICATION_MATCHED_STATUS);
+  return writer;
+}
+
+Result<dds_entity_t> CreateReader(const Participant& participant, dds_entity_t topic,
+                                  const Qos& qos, const std::string& name,
+                                  dds_entity_t* read_condition, dds_entity_t* waitset) {
+  const dds_entity_t reader = dds_create_reader(participant.handle(), topic, qos.get(), nullptr);
+  if (reader < 0) return DdsStatus(reader, "dds_create_reader(" + name + ")");
+  Entity reader_guard(reader);
+  (void)dds_set_status_mask(reader, DDS_SUBSCRIPTION_MATCHED_STATUS);
+  *read_condition = dds_create_readcondition(reader, DDS_ANY_STATE);
+  if (*read_condition < 0) {
+    return DdsStatus(*read_condition, "dds_create_readcondition(" + name + ")");
+  }
+  *waitset = dds_create_waitset(participant.handle());
+  if (*waitset < 0) return DdsStatus(*waitset, "dds_create_waitset(" + name + ")");
+  Entity waitset_guard(*waitset);
+  MAV_RETURN_IF_ERROR(DdsStatus(dds_waitset_attach(*waitset, *read_condition, reader),
+                                "dds_waitset_attach(" + name + ")"));
+  // Success: the caller owns both now.
+  waitset_guard.Release();
+  return reader_guard.Release();
+}
+
+Result<uint32_t> MatchedReaders(dds_entity_t writer, const std::string& name) {
+  dds_publication_matched_status_t status;
+  MAV_RETURN_IF_ERROR(DdsStatus(dds_get_publication_matched_status(writer, &status),
+                                "dds_get_publication_matched_status(" + name + ")"));
+  return status.current_count;
+}
+
+Result<uint32_t> MatchedWriters(dds_entity_t reader, const std::string& name) {
+  dds_subscription_matched_status_t status;
+  MAV_RETURN_IF_ERROR(DdsStatus(dds_get_subscription_matched_status(reader, &status),
+                                "dds_get_subscription_matched_status(" + name + ")"));
+  return status.current_count;
+}
+
+Status WaitForMatch(dds_entity_t entity, bool is_writer, uint32_t count, int64_t timeout_ns,
+                    const std::string& name) {
+  // Matching happens on Cyclone's discovery threads; polling every 5 ms is simple and cheap.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::nanoseconds(timeout_ns);
+  while (true) {
+    MAV_ASSIGN_OR_RETURN(uint32_t matched,
+                         is_writer ? MatchedReaders(entity, name) : MatchedWriters(entity, name));
+    if (matched >= count) return Status::Ok();
+    if (std::chrono::steady_clock::now() >= deadline) {
+      return Status::Unavailable(std::string(is_writer ? "writer" : "reader") + " on " + name +
+                                 ": " + std::to_string(matched) + " of " + std::to_string(count) +
+                                 " " + (is_writer ? "readers" : "writers") + " matched within " +
+                                 std::to_string(timeout_ns / 1'000'000) + " ms");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+}
+
+Result<bool> WaitForData(dds_entity_t waitset, int64_t timeout_ns, const std::string& name) {
+  const dds_return_t n = dds_waitset_wait(waitset, nullptr, 0, timeout_ns);
+  if (n < 0) return DdsStatus(n, "dds_waitset_wait(" + name + ")");
+  return n > 0;
+}
+
+}  // namespace internal
+
+}  // namespace mav::transport

@@ -1,0 +1,244 @@
+// The transport layer under the simulator service: the shared flag parser (clear errors naming
+// the flag), server options from flags and environment, and the RAII layer over Cyclone DDS
+// (typed write/take with loans, matched counts, waits, errors with dds_strretcode text).
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "mav/transport/dds.h"
+#include "mav/transport/flags.h"
+#include "mav/transport/grpc_server.h"
+#include "mav_sensors.h"
+#include "services/simulator/dds_io.h"
+
+namespace mav::transport {
+namespace {
+
+// A DDS domain of its own per test process, so concurrent test runs do not see each other.
+int64_t TestDomain(int offset) { return 1 + (::getpid() * 7 + offset) % 200; }
+
+TEST(FlagParserTest, ParsesAllKindsAndBothSyntaxes) {
+  std::string name = "x";
+  int64_t count = 1;
+  double rate = 1.0;
+  bool fast = false;
+  FlagParser flags("prog", "");
+  flags.AddString("name", &name, "");
+  flags.AddInt("count", &count, "");
+  flags.AddDouble("rate", &rate, "");
+  flags.AddBool("fast", &fast, "");
+  std::vector<std::string> positional;
+  ASSERT_TRUE(
+      flags.Parse({"--name", "abc", "--count=42", "pos", "--rate", "0.5", "--fast"}, &positional)
+          .ok());
+  EXPECT_EQ(name, "abc");
+  EXPECT_EQ(count, 42);
+  EXPECT_DOUBLE_EQ(rate, 0.5);
+  EXPECT_TRUE(fast);
+  EXPECT_EQ(positional, std::vector<std::string>{"pos"});
+  EXPECT_TRUE(flags.WasSet("count"));
+  ASSERT_TRUE(flags.Parse({"--fast=false"}, nullptr).ok());
+  EXPECT_FALSE(fast);
+}
+
+TEST(FlagParserTest, BadInputNamesTheFlag) {
+  int64_t port = 0;
+  bool fast = false;
+  FlagParser flags("prog", "");
+  flags.AddInt("port", &port, "");
+  flags.AddBool("fast", &fast, "");
+  Status s = flags.Parse({"--port", "abc"}, nullptr);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message().rfind("--port:", 0), 0u) << s.message();
+  s = flags.Parse({"--prot", "1"}, nullptr);
+  EXPECT_NE(s.message().find("unknown flag --prot"), std::string::npos) << s.message();
+  s = flags.Parse({"--port"}, nullptr);
+  EXPECT_NE(s.message().find("--port: missing value"), std::string::npos) << s.message();
+  s = flags.Parse({"--fast=maybe"}, nullptr);
+  EXPECT_EQ(s.message().rfind("--fast:", 0), 0u) << s.message();
+  s = flags.Parse({"stray"}, nullptr);
+  EXPECT_FALSE(s.ok());
+  bool help = false;
+  EXPECT_TRUE(flags.Parse({"--help"}, nullptr, &help).ok());
+  EXPECT_TRUE(help);
+}
+
+TEST(ServerOptionsTest, FlagBeatsEnvironmentBeatsDefault) {
+  ServerOptions options;
+  options.port = 50051;
+  FlagParser flags("prog", "");
+  AddServerFlags(&flags, &options, "MAV_TEST_TRANSPORT_PORT");
+  ASSERT_TRUE(flags.Parse({}, nullptr).ok());
+  ::setenv("MAV_TEST_TRANSPORT_PORT", "50999", 1);
+  ASSERT_TRUE(ApplyPortEnv(flags, "MAV_TEST_TRANSPORT_PORT", &options).ok());
+  EXPECT_EQ(options.port, 50999);
+  ASSERT_TRUE(flags.Parse({"--port", "50123"}, nullptr).ok());
+  ASSERT_TRUE(ApplyPortEnv(flags, "MAV_TEST_TRANSPORT_PORT", &options).ok());
+  EXPECT_EQ(options.port, 50123);
+
+  ServerOptions bad;
+  FlagParser flags2("prog", "");
+  AddServerFlags(&flags2, &bad, "MAV_TEST_TRANSPORT_PORT");
+  ::setenv("MAV_TEST_TRANSPORT_PORT", "70000", 1);
+  const Status s = ApplyPortEnv(flags2, "MAV_TEST_TRANSPORT_PORT", &bad);
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("MAV_TEST_TRANSPORT_PORT"), std::string::npos);
+  ::unsetenv("MAV_TEST_TRANSPORT_PORT");
+  std::string why;
+  bad.port = -1;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_EQ(why.rfind("port:", 0), 0u);
+}
+
+TEST(GrpcServerTest, ABusyPortIsUnavailableNamingTheAddress) {
+  ServerOptions options;
+  auto first = GrpcServer::Start(options, {});
+  ASSERT_TRUE(first.ok());
+  options.port = (*first)->port();
+  auto second = GrpcServer::Start(options, {});
+  ASSERT_FALSE(second.ok());
+  EXPECT_EQ(second.status().code(), StatusCode::kUnavailable);
+  EXPECT_NE(second.status().message().find("127.0.0.1:" + std::to_string(options.port)),
+            std::string::npos)
+      << second.status().message();
+}
+
+TEST(DdsOptionsTest, ConfigResolutionAndDomainValidation) {
+  DdsOptions options;
+  ::unsetenv("CYCLONEDDS_URI");
+  EXPECT_EQ(options.ResolvedConfig(), LoopbackDdsConfig());
+  options.config = "/etc/x.xml";
+  EXPECT_EQ(options.ResolvedConfig(), "file:///etc/x.xml");
+  options.config = "<CycloneDDS/>";
+  EXPECT_EQ(options.ResolvedConfig(), "<CycloneDDS/>");
+  options.config.clear();
+  ::setenv("CYCLONEDDS_URI", "file:///tmp/from-env.xml", 1);
+  EXPECT_EQ(options.ResolvedConfig(), "file:///tmp/from-env.xml");
+  ::unsetenv("CYCLONEDDS_URI");
+  options.domain = 231;
+  std::string why;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_NE(why.find("domain"), std::string::npos);
+  const auto participant = Participant::Create(options);
+  EXPECT_EQ(participant.status().code(), StatusCode::kInvalidArgument);
+}
+
+TEST(DdsTest, ABrokenConfigFailsWithTheDdsReason) {
+  DdsOptions options;
+  options.domain = TestDomain(1);
+  options.config = "<CycloneDDS><Domain><Bogus>1</Bogus></Domain></CycloneDDS>";
+  const auto participant = Participant::Create(options);
+  ASSERT_FALSE(participant.ok());
+  EXPECT_NE(participant.status().message().find("dds_create_domain"), std::string::npos)
+      << participant.status().message();
+}
+
+TEST(DdsTest, TheDeployedConfigFileWorks) {
+  DdsOptions options;
+  options.domain = TestDomain(3);
+  options.config = std::string(MAV_SOURCE_DIR) + "/deploy/cyclonedds.xml";
+  const auto participant = Participant::Create(options);
+  EXPECT_TRUE(participant.ok()) << participant.status().ToString();
+}
+
+TEST(DdsTest, TypedWriteAndLoanedTakeInOneProcess) {
+  DdsOptions options;
+  options.domain = TestDomain(2);
+  auto participant = Participant::Create(options);
+  ASSERT_TRUE(participant.ok()) << participant.status().ToString();
+  // A second participant of the same domain shares the domain instance.
+  auto participant2 = Participant::Create(options);
+  ASSERT_TRUE(participant2.ok()) << participant2.status().ToString();
+
+  auto topic =
+      Topic<mav_dds_StereoFrame>::Create(*participant, kStereoTopic, &mav_dds_StereoFrame_desc);
+  ASSERT_TRUE(topic.ok()) << topic.status().ToString();
+  auto topic2 =
+      Topic<mav_dds_StereoFrame>::Create(*participant2, kStereoTopic, &mav_dds_StereoFrame_desc);
+  ASSERT_TRUE(topic2.ok()) << topic2.status().ToString();
+  auto writer = Writer<mav_dds_StereoFrame>::Create(*participant, *topic, Qos::SensorStream());
+  ASSERT_TRUE(writer.ok()) << writer.status().ToString();
+  auto reader =
+      Reader<mav_dds_StereoFrame>::Create(*participant2, *topic2, Qos::SensorStream().KeepAll());
+  ASSERT_TRUE(reader.ok()) << reader.status().ToString();
+  ASSERT_TRUE(writer->WaitForReaders(1, 5'000'000'000).ok());
+  ASSERT_TRUE(reader->WaitForWriters(1, 5'000'000'000).ok());
+  EXPECT_EQ(*writer->MatchedReaders(), 1u);
+
+  // Nothing yet: WaitForData times out with false, Take gives zero samples.
+  auto waited = reader->WaitForData(10'000'000);
+  ASSERT_TRUE(waited.ok());
+  EXPECT_FALSE(*waited);
+
+  cv::RNG rng(3);
+  constexpr int kFrames = 5;
+  std::vector<uint32_t> crcs;
+  for (int k = 0; k < kFrames; ++k) {
+    simulator::RenderedFrame frame;
+    frame.t_ns = 1000 + k;
+    frame.left = cv::Mat(480, 752, CV_8UC1);
+    frame.right = cv::Mat(480, 752, CV_8UC1);
+    rng.fill(frame.left, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(frame.right, cv::RNG::UNIFORM, 0, 256);
+    mav_dds_StereoFrame sample;
+    simulator::FillStereoFrame(k, frame, false, 0, &sample);
+    crcs.push_back(sample.crc32);
+    ASSERT_TRUE(writer->Write(sample).ok());
+  }
+  ASSERT_TRUE(writer->WaitForAcks(5'000'000'000).ok());
+  int received = 0;
+  while (received < kFrames) {
+    auto ready = reader->WaitForData(2'000'000'000);
+    ASSERT_TRUE(ready.ok());
+    ASSERT_TRUE(*ready) << "only " << received << " frames arrived";
+    auto samples = reader->Take(2);
+    ASSERT_TRUE(samples.ok()) << samples.status().ToString();
+    for (int32_t i = 0; i < samples->size(); ++i) {
+      ASSERT_TRUE(samples->valid(i));
+      const mav_dds_StereoFrame& frame = (*samples)[i];
+      EXPECT_EQ(frame.sequence_number, static_cast<uint64_t>(received));
+      EXPECT_EQ(frame.t_ns, 1000 + received);
+      EXPECT_EQ(frame.crc32, crcs[received]);
+      EXPECT_TRUE(simulator::CheckStereoFrame(frame).ok());
+      EXPECT_STREQ(frame.left_camera_id, "cam0");
+      ++received;
+    }
+  }
+  // Moving an entity transfers ownership: the moved-from one no longer deletes anything.
+  Writer<mav_dds_StereoFrame> moved = std::move(*writer);
+  EXPECT_TRUE(moved.valid());
+  EXPECT_FALSE(writer->valid());
+}
+
+TEST(DdsTest, CheckStereoFrameNamesTheCorruptField) {
+  simulator::RenderedFrame frame;
+  frame.left = cv::Mat(4, 6, CV_8UC1, cv::Scalar(1));
+  frame.right = cv::Mat(4, 6, CV_8UC1, cv::Scalar(2));
+  mav_dds_StereoFrame sample;
+  simulator::FillStereoFrame(9, frame, true, 0, &sample);
+  EXPECT_TRUE(simulator::CheckStereoFrame(sample).ok());
+  frame.right.at<uint8_t>(3, 5) = 7;  // the sample borrows the buffer: a flipped byte
+  Status s = simulator::CheckStereoFrame(sample);
+  EXPECT_EQ(s.code(), StatusCode::kDataLoss);
+  EXPECT_NE(s.message().find("crc32"), std::string::npos) << s.message();
+  sample.left._length = 5;
+  s = simulator::CheckStereoFrame(sample);
+  EXPECT_NE(s.message().find("left: 5 bytes"), std::string::npos) << s.message();
+}
+
+TEST(DdsTest, ErrorCodesCarryTheDdsText) {
+  const Status s = DdsStatus(DDS_RETCODE_BAD_PARAMETER, "dds_write(x)");
+  EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
+  EXPECT_EQ(s.message().rfind("dds_write(x): ", 0), 0u);
+  EXPECT_GT(s.message().size(), std::string("dds_write(x): ").size());
+  EXPECT_TRUE(DdsStatus(0, "ok").ok());
+}
+
+}  // namespace
+}  // namespace mav::transport

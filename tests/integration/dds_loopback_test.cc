@@ -1,0 +1,317 @@
+// The data plane over real loopback sockets, across processes:
+//  * a DDS subscriber in another process (`mavctl listen`) receives every stereo frame intact
+//    (CRC-32) and in order;
+//  * end to end: the mav-simulator binary on a free port, driven over gRPC (health, LoadScenario,
+//    Start as fast as subscribers), streams room-easy to a subscriber in this process, and shuts
+//    down cleanly on SIGTERM.
+// Each test uses a DDS domain derived from the pid so concurrent test runs do not cross-talk.
+
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fcntl.h>
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+#include <opencv2/core.hpp>
+
+#include "mav/common/time.h"
+#include "mav/transport/dds.h"
+#include "mav/transport/grpc_server.h"
+#include "mav/v1/simulator.grpc.pb.h"
+#include "mav_sensors.h"
+#include "services/simulator/dds_io.h"
+
+extern char** environ;
+
+namespace mav {
+namespace {
+
+const std::string kBinDir = std::string(MAV_BINARY_DIR) + "/bin";
+
+int64_t TestDomain(int offset) { return 1 + (::getpid() * 7 + offset) % 200; }
+
+// A child process whose stdout (and stderr) go to a pipe or a file.
+class Child {
+ public:
+  Child(const std::vector<std::string>& argv, const std::string& log_path = "") {
+    int fds[2] = {-1, -1};
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    if (log_path.empty()) {
+      EXPECT_EQ(pipe(fds), 0);
+      posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+      posix_spawn_file_actions_addclose(&actions, fds[0]);
+      posix_spawn_file_actions_addclose(&actions, fds[1]);
+    } else {
+      posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(),
+                                       O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+    }
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    const int rc = posix_spawn(&pid_, args[0], &actions, nullptr, args.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    EXPECT_EQ(rc, 0) << "cannot start " << argv[0];
+    if (rc != 0) pid_ = -1;
+    if (fds[1] >= 0) close(fds[1]);
+    out_fd_ = fds[0];
+  }
+  ~Child() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    if (out_fd_ >= 0) close(out_fd_);
+  }
+  bool running() const { return pid_ > 0; }
+
+  // Reads stdout until EOF (the pipe variant only).
+  std::string ReadAll() {
+    std::string out;
+    char buffer[4096];
+    ssize_t n;
+    while (out_fd_ >= 0 && (n = read(out_fd_, buffer, sizeof(buffer))) > 0) out.append(buffer, n);
+    return out;
+  }
+  // Waits up to `timeout` for the exit; returns the exit status or nullopt (then kills it).
+  std::optional<int> Wait(std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      const pid_t r = waitpid(pid_, &status, WNOHANG);
+      if (r == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return std::nullopt;
+  }
+  void Signal(int sig) {
+    if (pid_ > 0) kill(pid_, sig);
+  }
+
+ private:
+  pid_t pid_ = -1;
+  int out_fd_ = -1;
+};
+
+// key=value pairs of the "RESULT ..." line of `mavctl listen`.
+std::map<std::string, std::string> ParseResult(const std::string& output) {
+  std::map<std::string, std::string> fields;
+  const size_t at = output.find("RESULT ");
+  if (at == std::string::npos) return fields;
+  std::istringstream line(output.substr(at + 7, output.find('\n', at) - at - 7));
+  std::string token;
+  while (line >> token) {
+    const size_t eq = token.find('=');
+    if (eq != std::string::npos) fields[token.substr(0, eq)] = token.substr(eq + 1);
+  }
+  return fields;
+}
+
+int FreeTcpPort() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  address.sin_port = 0;
+  EXPECT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
+  socklen_t length = sizeof(address);
+  getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
+  close(fd);
+  return ntohs(address.sin_port);
+}
+
+TEST(DdsLoopbackTest, ASubscriberInAnotherProcessReceivesEveryStereoFrameIntact) {
+  constexpr int kFrames = 40;
+  const int64_t domain = TestDomain(11);
+  Child listener({kBinDir + "/mavctl", "listen", "--topic", "stereo", "--frames",
+                  std::to_string(kFrames), "--timeout", "40", "--dds-domain",
+                  std::to_string(domain), "--quiet"});
+  ASSERT_TRUE(listener.running());
+
+  transport::DdsOptions options;
+  options.domain = domain;
+  auto sink = simulator::DdsStreamSink::Create(options);
+  ASSERT_TRUE(sink.ok()) << sink.status().ToString();
+  const auto match_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
+  while ((*sink)->StereoSubscribers() < 1 && std::chrono::steady_clock::now() < match_deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_GE((*sink)->StereoSubscribers(), 1u) << "mavctl listen never matched";
+
+  // Synthetic 752x480 pairs of seeded noise: every byte matters to the checksum.
+  cv::RNG rng(42);
+  const int64_t start_ns = MonotonicNowNs();
+  for (int k = 0; k < kFrames; ++k) {
+    simulator::RenderedFrame frame;
+    frame.index = k;
+    frame.t_ns = 1'000'000'000 + k * 50'000'000LL;
+    frame.left = cv::Mat(480, 752, CV_8UC1);
+    frame.right = cv::Mat(480, 752, CV_8UC1);
+    rng.fill(frame.left, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(frame.right, cv::RNG::UNIFORM, 0, 256);
+    ASSERT_TRUE((*sink)->PublishStereo(k, frame, false).ok());
+    ASSERT_TRUE((*sink)->WaitForStereoAcks(5'000'000'000).ok()) << "frame " << k;
+  }
+  const double publish_s = NsToSeconds(MonotonicNowNs() - start_ns);
+
+  const std::string output = listener.ReadAll();
+  const std::optional<int> exit_code = listener.Wait(std::chrono::seconds(30));
+  ASSERT_TRUE(exit_code.has_value()) << "mavctl listen did not finish:\n" << output;
+  EXPECT_EQ(*exit_code, 0) << output;
+  const auto result = ParseResult(output);
+  ASSERT_FALSE(result.empty()) << output;
+  EXPECT_EQ(result.at("frames"), std::to_string(kFrames)) << output;
+  EXPECT_EQ(result.at("first_seq"), "0") << output;
+  EXPECT_EQ(result.at("missing"), "0") << output;
+  EXPECT_EQ(result.at("out_of_order"), "0") << output;
+  EXPECT_EQ(result.at("crc_failures"), "0") << output;
+  std::printf("%d frames of 722 KB published and acknowledged in %.3f s (%.1f frames/s)\n%s",
+              kFrames, publish_s, kFrames / publish_s, output.c_str());
+}
+
+TEST(DdsLoopbackTest, SimulatorBinaryStreamsAScenarioEndToEnd) {
+  constexpr int kFrames = 20;
+  const int64_t domain = TestDomain(23);
+  const int port = FreeTcpPort();
+  const std::string target = "127.0.0.1:" + std::to_string(port);
+  const std::string log = std::string(MAV_BINARY_DIR) + "/Testing/mav-simulator-e2e-" +
+                          std::to_string(::getpid()) + ".log";
+  std::system(("mkdir -p " + std::string(MAV_BINARY_DIR) + "/Testing").c_str());
+  Child simulator({kBinDir + "/mav-simulator", "--port", std::to_string(port), "--dds-domain",
+                   std::to_string(domain)},
+                  log);
+  ASSERT_TRUE(simulator.running());
+
+  // Health first: SERVING once the server is up.
+  auto channel = grpc::CreateChannel(target, grpc::InsecureChannelCredentials());
+  bool serving = false;
+  const auto health_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
+  while (!serving && std::chrono::steady_clock::now() < health_deadline) {
+    auto health = transport::CheckHealth(channel, "mav.v1.Simulator", std::chrono::seconds(1));
+    serving = health.ok() && *health == transport::HealthStatus::kServing;
+    if (!serving) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(serving) << "mav-simulator did not become healthy; see " << log;
+
+  auto stub = v1::Simulator::NewStub(channel);
+  auto deadline = [] { return std::chrono::system_clock::now() + std::chrono::seconds(20); };
+  {
+    v1::LoadScenarioRequest request;
+    request.mutable_preset()->set_name("room-easy");
+    request.mutable_preset()->set_frames(kFrames);
+    grpc::ClientContext context;
+    context.set_deadline(deadline());
+    v1::LoadScenarioResponse response;
+    const grpc::Status status = stub->LoadScenario(&context, request, &response);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    ASSERT_EQ(response.scenario().frames(), kFrames);
+  }
+
+  // The subscriber: reliable, keep-all, as a recorder would be.
+  transport::DdsOptions options;
+  options.domain = domain;
+  auto participant = transport::Participant::Create(options);
+  ASSERT_TRUE(participant.ok()) << participant.status().ToString();
+  auto topic = transport::Topic<mav_dds_StereoFrame>::Create(*participant, transport::kStereoTopic,
+                                                             &mav_dds_StereoFrame_desc);
+  ASSERT_TRUE(topic.ok());
+  auto reader = transport::Reader<mav_dds_StereoFrame>::Create(
+      *participant, *topic, transport::Qos::SensorStream().KeepAll());
+  ASSERT_TRUE(reader.ok());
+  auto imu_topic = transport::Topic<mav_dds_ImuSample>::Create(*participant, transport::kImuTopic,
+                                                               &mav_dds_ImuSample_desc);
+  ASSERT_TRUE(imu_topic.ok());
+  auto imu_reader = transport::Reader<mav_dds_ImuSample>::Create(
+      *participant, *imu_topic, transport::Qos::HighRate().KeepAll());
+  ASSERT_TRUE(imu_reader.ok());
+
+  {
+    v1::SimulatorStartRequest request;
+    request.set_as_fast_as_subscribers(true);
+    request.set_wait_for_subscribers(1);
+    request.set_wait_timeout_s(15);
+    grpc::ClientContext context;
+    context.set_deadline(deadline());
+    v1::SimulatorStatus response;
+    const grpc::Status status = stub->Start(&context, request, &response);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  }
+
+  int received = 0;
+  int64_t imu_samples = 0;
+  int64_t last_imu_t = 0;
+  int64_t last_frame_t = 0;
+  const int64_t end_ns = MonotonicNowNs() + 50 * kNsPerSecond;
+  while (received < kFrames && MonotonicNowNs() < end_ns) {
+    ASSERT_TRUE(reader->WaitForData(100'000'000).ok());
+    // IMU first: every sample up to a frame's time is published before the frame.
+    auto imu = imu_reader->Take(256);
+    ASSERT_TRUE(imu.ok());
+    for (int32_t i = 0; i < imu->size(); ++i) {
+      if (!imu->valid(i)) continue;
+      EXPECT_EQ((*imu)[i].sequence_number, static_cast<uint64_t>(imu_samples));
+      last_imu_t = (*imu)[i].t_ns;
+      ++imu_samples;
+    }
+    auto samples = reader->Take(4);
+    ASSERT_TRUE(samples.ok());
+    for (int32_t i = 0; i < samples->size(); ++i) {
+      if (!samples->valid(i)) continue;
+      const mav_dds_StereoFrame& frame = (*samples)[i];
+      EXPECT_EQ(frame.sequence_number, static_cast<uint64_t>(received)) << "frames out of order";
+      const Status check = simulator::CheckStereoFrame(frame);
+      EXPECT_TRUE(check.ok()) << check.message();
+      EXPECT_EQ(frame.width, 752u);
+      EXPECT_EQ(frame.height, 480u);
+      EXPECT_GT(frame.t_ns, last_frame_t);
+      last_frame_t = frame.t_ns;
+      ++received;
+    }
+  }
+  EXPECT_EQ(received, kFrames);
+  EXPECT_GT(imu_samples, 0);
+  EXPECT_LE(last_imu_t, last_frame_t);
+
+  // The simulator says FINISHED with everything published.
+  v1::SimulatorStatus status;
+  const auto finish_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  do {
+    grpc::ClientContext context;
+    context.set_deadline(deadline());
+    ASSERT_TRUE(stub->GetStatus(&context, v1::SimulatorGetStatusRequest(), &status).ok());
+    if (status.state() == v1::SIMULATOR_STATE_FINISHED) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  } while (std::chrono::steady_clock::now() < finish_deadline);
+  EXPECT_EQ(status.state(), v1::SIMULATOR_STATE_FINISHED);
+  EXPECT_EQ(status.frames_published(), static_cast<uint64_t>(kFrames));
+  EXPECT_EQ(status.dds_domain(), static_cast<uint32_t>(domain));
+  std::printf("end to end: %d frames, render mean %.1f ms, publish mean %.1f ms (incl. acks)\n",
+              received, status.render_ms().mean_ms(), status.publish_ms().mean_ms());
+
+  // Graceful shutdown on SIGTERM: exit status 0 within the grace period.
+  simulator.Signal(SIGTERM);
+  const std::optional<int> exit_code = simulator.Wait(std::chrono::seconds(10));
+  ASSERT_TRUE(exit_code.has_value()) << "mav-simulator ignored SIGTERM";
+  EXPECT_EQ(*exit_code, 0) << "see " << log;
+}
+
+}  // namespace
+}  // namespace mav

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include "test_util.h"
 
 namespace mav::dataset {
@@ -15,17 +17,12 @@ using testing::ReadFile;
 using testing::TempDir;
 using testing::WriteFile;
 
-Eigen::Quaterniond RandomQuaternion(std::mt19937* rng, bool fixed_point) {
+Eigen::Quaterniond RandomQuaternion(std::mt19937* rng) {
   std::normal_distribution<double> n;
-  while (true) {
-    const Eigen::Quaterniond q =
-        Eigen::Quaterniond(n(*rng), n(*rng), n(*rng), n(*rng)).normalized();
-    // A fixed point of SE3's renormalisation round-trips bit for bit (see trajectory_io.h).
-    if (!fixed_point || q.normalized().coeffs() == q.coeffs()) return q;
-  }
+  return Eigen::Quaterniond(n(*rng), n(*rng), n(*rng), n(*rng)).normalized();
 }
 
-std::vector<StampedPose> RandomPoses(int count, bool fixed_point, uint32_t seed) {
+std::vector<StampedPose> RandomPoses(int count, uint32_t seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> n;
   std::uniform_int_distribution<int64_t> step(1, 90'000'000);
@@ -34,8 +31,8 @@ std::vector<StampedPose> RandomPoses(int count, bool fixed_point, uint32_t seed)
   for (int i = 0; i < count; ++i) {
     t += step(rng);
     poses[i].t_ns = t;
-    poses[i].T_world_body = geometry::SE3(RandomQuaternion(&rng, fixed_point),
-                                          Eigen::Vector3d(n(rng), n(rng), n(rng)) * 10.0);
+    poses[i].T_world_body =
+        geometry::SE3(RandomQuaternion(&rng), Eigen::Vector3d(n(rng), n(rng), n(rng)) * 10.0);
   }
   return poses;
 }
@@ -43,7 +40,7 @@ std::vector<StampedPose> RandomPoses(int count, bool fixed_point, uint32_t seed)
 TEST(Tum, RoundTripIsExact) {
   TempDir dir;
   const std::string path = dir.path() + "/traj.txt";
-  const std::vector<StampedPose> poses = RandomPoses(500, /*fixed_point=*/true, 1);
+  const std::vector<StampedPose> poses = RandomPoses(500, 1);
   ASSERT_TRUE(WriteTumTrajectory(path, poses).ok());
   auto read = ReadTumTrajectory(path);
   ASSERT_TRUE(read.ok()) << read.status().ToString();
@@ -59,10 +56,12 @@ TEST(Tum, RoundTripIsExact) {
   EXPECT_EQ(ReadFile(path), ReadFile(path + "2"));
 }
 
-TEST(Tum, ArbitraryQuaternionsWithinOneUlp) {
+TEST(Tum, ManyRandomQuaternionsRoundTripBitForBit) {
+  // SE3 keeps a quaternion that is unit to rounding as it is, so every normalised quaternion
+  // written with shortest round-trip digits reads back bit for bit.
   TempDir dir;
   const std::string path = dir.path() + "/traj.txt";
-  const std::vector<StampedPose> poses = RandomPoses(2000, /*fixed_point=*/false, 2);
+  const std::vector<StampedPose> poses = RandomPoses(2000, 2);
   ASSERT_TRUE(WriteTumTrajectory(path, poses).ok());
   auto read = ReadTumTrajectory(path);
   ASSERT_TRUE(read.ok());
@@ -70,9 +69,9 @@ TEST(Tum, ArbitraryQuaternionsWithinOneUlp) {
   for (size_t i = 0; i < poses.size(); ++i) {
     EXPECT_EQ((*read)[i].t_ns, poses[i].t_ns);
     EXPECT_EQ((*read)[i].T_world_body.Translation(), poses[i].T_world_body.Translation());
-    const Eigen::Vector4d d =
-        (*read)[i].T_world_body.Rotation().coeffs() - poses[i].T_world_body.Rotation().coeffs();
-    EXPECT_LE(d.cwiseAbs().maxCoeff(), 2.3e-16);
+    EXPECT_EQ((*read)[i].T_world_body.Rotation().coeffs(),
+              poses[i].T_world_body.Rotation().coeffs())
+        << "pose " << i;
   }
 }
 
@@ -144,7 +143,7 @@ TEST(Tum, BadInputNamesLineAndField) {
 TEST(Kitti, MatricesRoundTripExactlyAndRewriteIsByteIdentical) {
   TempDir dir;
   const std::string path = dir.path() + "/poses.txt";
-  const std::vector<StampedPose> stamped = RandomPoses(300, /*fixed_point=*/false, 3);
+  const std::vector<StampedPose> stamped = RandomPoses(300, 3);
   std::vector<geometry::SE3> poses;
   for (const StampedPose& p : stamped) poses.push_back(p.T_world_body);
   ASSERT_TRUE(WriteKittiTrajectory(path, poses).ok());
@@ -158,13 +157,15 @@ TEST(Kitti, MatricesRoundTripExactlyAndRewriteIsByteIdentical) {
   ASSERT_TRUE(WriteKittiMatrices(path + "2", *matrices).ok());
   EXPECT_EQ(ReadFile(path), ReadFile(path + "2"));
 
-  // Through SE3 (which stores a quaternion): equal to within 1e-15 per matrix entry.
+  // Through SE3, which stores a quaternion: matrix -> quaternion -> matrix costs a few units in
+  // the last place (entries are <= 1, so 8 ulp of 1.0 bounds it).
   auto read = ReadKittiTrajectory(path);
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   ASSERT_EQ(read->size(), poses.size());
   for (size_t i = 0; i < poses.size(); ++i) {
     EXPECT_EQ((*read)[i].Translation(), poses[i].Translation());
-    EXPECT_LE(((*read)[i].Matrix3x4() - poses[i].Matrix3x4()).cwiseAbs().maxCoeff(), 1e-15)
+    EXPECT_LE(((*read)[i].Matrix3x4() - poses[i].Matrix3x4()).cwiseAbs().maxCoeff(),
+              8 * std::numeric_limits<double>::epsilon())
         << "pose " << i;
   }
 }

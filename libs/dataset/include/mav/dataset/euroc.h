@@ -16,10 +16,9 @@
 //
 // Exactness: every number is written in the shortest decimal form that parses back to the same
 // double (std::to_chars), so timestamps, IMU samples, translations, velocities, biases, intrinsics
-// and distortion round-trip bit for bit, and images are lossless PNG. The one caveat is rotation:
-// geometry::SE3 renormalises its quaternion on construction, which moves about a third of
-// quaternions by one unit in the last place (<= 2.3e-16); T_BS goes through a rotation matrix and
-// back, which costs a few ulps (< 1e-15). See docs/datasets.md.
+// and distortion round-trip bit for bit, and images are lossless PNG. Ground-truth quaternions
+// round-trip bit for bit too (geometry::SE3 keeps a quaternion that is unit to rounding as it is).
+// T_BS goes through a rotation matrix and back, which costs a few ulps. See docs/datasets.md.
 //
 // This header does not include OpenCV; callers of ReadStereo() that want a StereoPair include
 // "mav/dataset/stereo_pair.h".

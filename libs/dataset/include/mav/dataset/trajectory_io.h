@@ -13,10 +13,10 @@
 //
 // Numbers are written in their shortest exact decimal form (std::to_chars), so every double in a
 // file reads back bit-identically: ReadKittiMatrices(WriteKittiMatrices(m)) == m exactly, and
-// rewriting what was read reproduces the file byte for byte. Poses go through geometry::SE3, which
-// stores a renormalised quaternion: a pose read back from TUM differs from the one written by at
-// most one unit in the last place of its quaternion; a KITTI rotation matrix converted to SE3 and
-// back differs by < 1e-15 per entry. Translations and timestamps are always exact.
+// rewriting what was read reproduces the file byte for byte. A TUM pose whose quaternion is unit
+// to rounding (any normalised quaternion) reads back bit for bit, since geometry::SE3 keeps such a
+// quaternion as it is. A KITTI rotation matrix converted to SE3 (a quaternion) and back differs by
+// a few units in the last place per entry. Translations and timestamps are always exact.
 
 #include <string>
 #include <vector>

@@ -39,14 +39,14 @@ for _ in $(seq 50); do
   sleep 0.2
 done
 "$bin/mavctl" health --port "$port"
-"$bin/mavctl" --port "$port" sim load --euroc "$data"
+"$bin/mavctl" sim load --euroc "$data" --port "$port"
 
 step "3/3 replaying in real time over DDS; mavctl listen reports what arrived"
 "$bin/mavctl" listen --topic all --frames "$frames" --timeout 60 &
 listen_pid=$!
 sleep 1  # let DDS discovery match the listener before the first frame
-"$bin/mavctl" --port "$port" sim start --rate 1.0
+"$bin/mavctl" sim start --rate 1.0 --port "$port"
 listen_status=0
 wait "$listen_pid" || listen_status=$?
-"$bin/mavctl" --port "$port" sim status
+"$bin/mavctl" sim status --port "$port"
 exit "$listen_status"

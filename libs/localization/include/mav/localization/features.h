@@ -1,0 +1,134 @@
+#pragma once
+// Sparse features for stereo visual odometry, after Geiger, Ziegler, Stiller, "StereoScan: Dense
+// 3d reconstruction in real-time", IEEE Intelligent Vehicles Symposium 2011, Section III-A.
+//
+// The image is filtered with two zero-mean 5x5 masks, a blob mask (centre 8, inner ring +1,
+// outer ring -1) and a corner mask (2x2 quadrants of +-1 around a zero cross). Local maxima and
+// minima of both responses (non-maximum suppression over (2n+1)x(2n+1)) above a threshold give
+// four feature classes: blob-max, blob-min, corner-max, corner-min. Features are only ever
+// compared within their class. Each feature carries a 32-byte descriptor: the horizontal and the
+// vertical Sobel response at 16 sparse positions of the 11x11 window around it, compared with
+// the sum of absolute differences (SAD, one SSE2 `psadbw` per 16 bytes).
+//
+// Pure C++ (no OpenCV in this header): images come in as ImageView.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
+namespace mav::localization {
+
+enum FeatureClass : int { kBlobMax = 0, kBlobMin = 1, kCornerMax = 2, kCornerMin = 3 };
+inline constexpr int kNumFeatureClasses = 4;
+
+// A non-owning view of an 8-bit grey image, row-major with `stride` bytes per row.
+struct ImageView {
+  const uint8_t* data = nullptr;
+  int width = 0;
+  int height = 0;
+  int stride = 0;
+};
+
+// 16 horizontal-Sobel bytes followed by 16 vertical-Sobel bytes, each Sobel value mapped to
+// clamp(s / 4 + 128, 0, 255). 16-byte aligned for SSE2 loads.
+struct alignas(16) Descriptor {
+  std::array<uint8_t, 32> bytes{};
+};
+
+// Sum of absolute differences of two descriptors (0 .. 8160). Inline: it is the inner loop of
+// matching.
+inline uint32_t DescriptorSad(const Descriptor& a, const Descriptor& b) {
+#ifdef __SSE2__
+  const __m128i a0 = _mm_load_si128(reinterpret_cast<const __m128i*>(a.bytes.data()));
+  const __m128i a1 = _mm_load_si128(reinterpret_cast<const __m128i*>(a.bytes.data() + 16));
+  const __m128i b0 = _mm_load_si128(reinterpret_cast<const __m128i*>(b.bytes.data()));
+  const __m128i b1 = _mm_load_si128(reinterpret_cast<const __m128i*>(b.bytes.data() + 16));
+  const __m128i s = _mm_add_epi64(_mm_sad_epu8(a0, b0), _mm_sad_epu8(a1, b1));
+  return static_cast<uint32_t>(_mm_cvtsi128_si32(s) + _mm_cvtsi128_si32(_mm_srli_si128(s, 8)));
+#else
+  uint32_t sum = 0;
+  for (int i = 0; i < 32; ++i)
+    sum += a.bytes[i] > b.bytes[i] ? a.bytes[i] - b.bytes[i] : b.bytes[i] - a.bytes[i];
+  return sum;
+#endif
+}
+
+struct FeatureOptions {
+  // Non-maximum suppression radius n: a feature is the extremum of its (2n+1)x(2n+1)
+  // neighbourhood (in the detection image; among equal 8-neighbours the first in raster order).
+  // StereoScan suggests n = 3; larger n gives fewer, more distinctive features and faster matching.
+  int nms_radius = 4;
+  // Minimum |response| of a feature, in units of the masks above applied to 8-bit intensities.
+  int response_threshold = 50;
+  // Detect on a 2x2-averaged half-resolution image (4x fewer pixels to filter); positions are
+  // scaled back, descriptors always come from the full-resolution image.
+  bool half_resolution = false;
+  // Side of the square cells of the spatial index used for candidate look-up, pixels.
+  int grid_cell_px = 16;
+
+  bool IsValid(std::string* why) const;
+};
+
+// Features of one image, stored per class and sorted by grid cell so that all features inside a
+// rectangle are found by visiting the cells it overlaps. Also keeps the two Sobel images so that
+// descriptors can be sampled at any pixel (sub-pixel refinement).
+class FeatureSet {
+ public:
+  struct Class {
+    std::vector<int16_t> u, v;            // pixel positions, sorted by cell
+    std::vector<int16_t> strength;        // |filter response| (>= response_threshold)
+    std::vector<Descriptor> descriptors;  // parallel to u, v
+    std::vector<int32_t> cell_start;      // features of cell c: [cell_start[c], cell_start[c+1])
+    int size() const { return static_cast<int>(u.size()); }
+  };
+
+  int width() const { return width_; }
+  int height() const { return height_; }
+  int grid_cell_px() const { return cell_; }
+  int grid_cols() const { return cols_; }
+  int grid_rows() const { return rows_; }
+  const Class& features(int feature_class) const { return classes_[feature_class]; }
+  int TotalFeatures() const;
+
+  // Sobel responses, mapped to bytes as in Descriptor; width() x height(), row-major.
+  const std::vector<uint8_t>& sobel_u() const { return sobel_u_; }
+  const std::vector<uint8_t>& sobel_v() const { return sobel_v_; }
+  // Descriptor at pixel (u, v); requires kDescriptorMargin <= u < width - kDescriptorMargin and
+  // likewise for v.
+  Descriptor DescriptorAt(int u, int v) const;
+  // Features keep this distance from the image border (descriptor window + refinement step).
+  static constexpr int kDescriptorMargin = 8;
+
+ private:
+  friend class FeatureExtractor;
+  int width_ = 0, height_ = 0, cell_ = 16, cols_ = 0, rows_ = 0;
+  std::array<Class, kNumFeatureClasses> classes_;
+  std::vector<uint8_t> sobel_u_, sobel_v_;
+};
+
+// Extracts features; owns scratch buffers so that repeated calls do not allocate.
+class FeatureExtractor {
+ public:
+  explicit FeatureExtractor(const FeatureOptions& options);  // MAV_CHECKs options.IsValid
+  // Fills *out (reusing its memory). Images smaller than 2 * kDescriptorMargin + 1 in either
+  // direction yield no features.
+  void Extract(const ImageView& image, FeatureSet* out);
+
+ private:
+  FeatureOptions options_;
+  std::vector<uint8_t> half_;
+  std::vector<int16_t> blob_, corner_, scratch_;
+  std::vector<int32_t> order_;
+};
+
+// Blob and corner filter responses of `image` (width x height int16, row-major); pixels within
+// 2 of the border are 0. Exposed for tests.
+void ComputeFilterResponses(const ImageView& image, std::vector<int16_t>* blob,
+                            std::vector<int16_t>* corner, std::vector<int16_t>* scratch);
+
+}  // namespace mav::localization

@@ -1,0 +1,95 @@
+#pragma once
+// Sparse stereo visual odometry in the style of libviso2, written from Geiger, Ziegler, Stiller,
+// "StereoScan: Dense 3d reconstruction in real-time", IEEE Intelligent Vehicles Symposium 2011.
+//
+// Per stereo pair (already rectified, see camera::StereoRectifier):
+//   1. features: blob/corner 5x5 filter responses, non-maximum suppression, Sobel descriptors
+//      (features.h) in both images;
+//   2. circular matching previous left -> previous right -> current right -> current left ->
+//      previous left, bucketing, and in `subpixel` mode sub-pixel refinement (matcher.h);
+//   3. motion: points triangulated from the previous pair, RANSAC over 3-point sets with
+//      Gauss-Newton on the reprojection error in both current images, final refinement on all
+//      inliers (stereo_motion.h).
+// The pose is chained: T_world_cur = T_world_prev * T_prev_cur.
+//
+// Tracking: when a frame cannot be estimated (too few features, matches or inliers; implausible
+// motion) the result is LOST with a reason, the pose is held (never NaN) and the current pair
+// becomes the reference for the next one, so tracking resumes on the next good pair.
+//
+// Runs on one thread. Not thread-safe: one SparseVo per stream.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mav/camera/stereo.h"
+#include "mav/common/status.h"
+#include "mav/geometry/se3.h"
+#include "mav/localization/features.h"
+#include "mav/localization/matcher.h"
+#include "mav/localization/stereo_motion.h"
+#include "mav/localization/types.h"
+
+namespace cv {
+class Mat;
+}
+
+namespace mav::localization {
+
+// The two modes of the paper (Holzmann et al. 2015, Table 1): matches at integer feature
+// positions, or refined to sub-pixel accuracy.
+enum class SparseVoMode { kPixel, kSubpixel };
+const char* SparseVoModeName(SparseVoMode mode);  // "pixel", "subpixel"
+
+struct SparseVoOptions {
+  SparseVoMode mode = SparseVoMode::kSubpixel;
+  FeatureOptions features;
+  MatcherOptions matcher;
+  // motion.inlier_threshold_px is replaced by the threshold of the mode: integer positions
+  // carry up to +-0.5 px quantisation per coordinate, so pixel mode needs a wider gate, while
+  // sub-pixel mode gains accuracy from a tight one.
+  StereoMotionOptions motion;
+  double pixel_inlier_threshold_px = 2.0;
+  double subpixel_inlier_threshold_px = 1.0;
+  // A frame with fewer circular matches (after bucketing) than this is LOST.
+  int min_matches = 12;
+  // A per-frame translation above this (metres) is rejected as LOST (20 m/s at 20 Hz).
+  double max_translation_per_frame_m = 1.0;
+
+  bool IsValid(std::string* why) const;
+};
+
+class SparseVo {
+ public:
+  // InvalidArgument naming the field if the rig or the options are invalid.
+  static Result<SparseVo> Create(const camera::RectifiedStereo& rig,
+                                 const SparseVoOptions& options = {});
+
+  // Processes one rectified pair taken at t_ns. Both images: CV_8UC1, rig.width x rig.height.
+  // Bad input is an InvalidArgument naming "left"/"right" and leaves the tracker unchanged;
+  // otherwise the result is OK or LOST (see above).
+  Result<VoFrameResult> ProcessFrame(int64_t t_ns, const cv::Mat& left, const cv::Mat& right);
+
+  // Forgets the reference pair and the pose (next frame starts again at identity).
+  void Reset();
+
+  const geometry::SE3& T_world_cam() const;
+  const SparseVoOptions& options() const;
+  const camera::RectifiedStereo& rig() const;
+  int64_t frames_processed() const;
+  // The last frame's matches after bucketing (and refinement) and which of them were inliers.
+  const std::vector<QuadMatch>& last_matches() const;
+  const std::vector<int>& last_inliers() const;
+
+  SparseVo(SparseVo&&) noexcept;
+  SparseVo& operator=(SparseVo&&) noexcept;
+  ~SparseVo();
+
+ private:
+  struct Impl;
+  explicit SparseVo(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mav::localization

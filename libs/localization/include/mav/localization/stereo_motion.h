@@ -1,0 +1,78 @@
+#pragma once
+// Egomotion from stereo correspondences, after Geiger, Ziegler, Stiller, "StereoScan" (IV 2011),
+// Section III-B: 3D points triangulated from the previous stereo pair are projected into both
+// images of the current pair; the motion minimises the reprojection error
+//   E(T) = sum_i || pi_left(T X_i) - x_i,left ||^2 + || pi_right(T X_i) - x_i,right ||^2
+// with Gauss-Newton, inside RANSAC over minimal sets of 3 correspondences, followed by a final
+// refinement on all inliers.
+//
+// Frames: X_i are in the previous rectified left camera; T = T_cur_prev maps them into the
+// current rectified left camera; the right camera sits at +baseline along x
+// (camera::RectifiedStereo). Gauss-Newton updates T <- Exp(delta) * T with delta = (rho, phi) as
+// geometry::SE3::Exp.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mav/camera/stereo.h"
+#include "mav/geometry/se3.h"
+
+namespace mav::localization {
+
+// Observation of one point in the current pair: (u_left, v_left, u_right, v_right), pixels.
+using StereoObservation = Eigen::Vector4d;
+using Matrix46d = Eigen::Matrix<double, 4, 6>;
+
+// Residual r = projection - observation (left u, v, right u, v) of point p_prev under T_cur_prev,
+// and optionally its Jacobian with respect to the left-multiplied tangent delta at delta = 0.
+// Returns false (r, J untouched) if the point is not in front of the current camera (z < 1 mm).
+bool StereoReprojectionResidual(const camera::RectifiedStereo& rig, const geometry::SE3& T_cur_prev,
+                                const Eigen::Vector3d& p_prev, const StereoObservation& observation,
+                                Eigen::Vector4d* residual, Matrix46d* jacobian);
+
+struct StereoMotionOptions {
+  // Upper bound on RANSAC hypotheses; fewer are drawn once `confidence` is reached
+  // (N = log(1 - confidence) / log(1 - w^3) for the best inlier ratio w so far).
+  int ransac_iterations = 200;
+  double confidence = 0.999;
+  // A correspondence is an inlier when the norm of its 4-vector residual is below this (pixels).
+  double inlier_threshold_px = 2.0;
+  // Gauss-Newton iterations for a minimal set and for each final refinement round.
+  int minimal_iterations = 15;
+  int refinement_iterations = 30;
+  // Estimation fails with fewer inliers than this.
+  int min_inliers = 10;
+  // RANSAC's random generator is seeded with seed (the caller may mix in a frame index).
+  uint64_t seed = 42;
+
+  bool IsValid(std::string* why) const;
+};
+
+struct StereoMotionEstimate {
+  bool ok = false;
+  std::string failure;  // why not ok
+  geometry::SE3 T_cur_prev;
+  std::vector<int> inliers;  // indices into the input, ascending
+  double mean_error_px = 0;  // mean residual norm over inliers
+  int hypotheses = 0;        // RANSAC hypotheses drawn
+};
+
+// Gauss-Newton on the correspondences `indices` starting from *T_cur_prev. Returns false (and
+// leaves *T_cur_prev untouched) if the normal equations are singular or the result is not
+// finite. Converged when the update norm drops below 1e-10.
+bool RefineStereoMotion(const camera::RectifiedStereo& rig,
+                        const std::vector<Eigen::Vector3d>& points_prev,
+                        const std::vector<StereoObservation>& observations,
+                        const std::vector<int>& indices, int max_iterations,
+                        geometry::SE3* T_cur_prev);
+
+// RANSAC + Gauss-Newton. points_prev and observations are parallel. Deterministic for a seed.
+StereoMotionEstimate EstimateStereoMotion(const camera::RectifiedStereo& rig,
+                                          const std::vector<Eigen::Vector3d>& points_prev,
+                                          const std::vector<StereoObservation>& observations,
+                                          const StereoMotionOptions& options);
+
+}  // namespace mav::localization

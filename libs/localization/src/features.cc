@@ -1,0 +1,410 @@
+#include "mav/localization/features.h"
+
+#include <algorithm>
+#include <cstring>
+#include <sstream>
+
+#include "mav/common/check.h"
+
+namespace mav::localization {
+namespace {
+
+// Sparse sampling pattern of the 11x11 descriptor window (offsets du, dv), used for both Sobel
+// images: symmetric, denser near the centre, reaching the window border at +-5.
+constexpr int kPatternU[16] = {-1, 1, -3, 3, -5, -1, 1, 5, -5, -1, 1, 5, -3, 3, -1, 1};
+constexpr int kPatternV[16] = {-5, -5, -3, -3, -1, -1, -1, -1, 1, 1, 1, 1, 3, 3, 5, 5};
+
+inline uint8_t SobelToByte(int s) {
+  return static_cast<uint8_t>(std::clamp((s >> 2) + 128, 0, 255));
+}
+
+struct RawFeature {
+  int16_t u, v, strength;  // strength = |response|
+};
+
+// Running maximum and minimum over [x - n, x + n] (row pass) for x in [x0, x1); the radius is a
+// template parameter so the inner loop unrolls and the x loop vectorises.
+template <int N>
+void RunningExtremaN(const int16_t* __restrict in, int x0, int x1, int16_t* __restrict omax,
+                     int16_t* __restrict omin) {
+  for (int x = x0; x < x1; ++x) {
+    int16_t a = in[x], b = in[x];
+    for (int k = 1; k <= N; ++k) {
+      a = std::max(a, std::max(in[x - k], in[x + k]));
+      b = std::min(b, std::min(in[x - k], in[x + k]));
+    }
+    omax[x] = a;
+    omin[x] = b;
+  }
+}
+
+template <int N>
+void RunningColumnExtremaN(const int16_t* __restrict imax, const int16_t* __restrict imin, int x0,
+                           int x1, int stride, int16_t* __restrict omax, int16_t* __restrict omin) {
+  for (int x = x0; x < x1; ++x) {
+    int16_t a = imax[x], b = imin[x];
+    for (int k = 1; k <= N; ++k) {
+      a = std::max(a, std::max(imax[x - k * stride], imax[x + k * stride]));
+      b = std::min(b, std::min(imin[x - k * stride], imin[x + k * stride]));
+    }
+    omax[x] = a;
+    omin[x] = b;
+  }
+}
+
+void RunningExtrema(const int16_t* in, int x0, int x1, int n, int16_t* omax, int16_t* omin) {
+  switch (n) {
+    case 1:
+      return RunningExtremaN<1>(in, x0, x1, omax, omin);
+    case 2:
+      return RunningExtremaN<2>(in, x0, x1, omax, omin);
+    case 3:
+      return RunningExtremaN<3>(in, x0, x1, omax, omin);
+    case 4:
+      return RunningExtremaN<4>(in, x0, x1, omax, omin);
+    case 5:
+      return RunningExtremaN<5>(in, x0, x1, omax, omin);
+    case 6:
+      return RunningExtremaN<6>(in, x0, x1, omax, omin);
+    case 7:
+      return RunningExtremaN<7>(in, x0, x1, omax, omin);
+    default:
+      return RunningExtremaN<8>(in, x0, x1, omax, omin);
+  }
+}
+
+void RunningColumnExtrema(const int16_t* imax, const int16_t* imin, int x0, int x1, int n,
+                          int stride, int16_t* omax, int16_t* omin) {
+  switch (n) {
+    case 1:
+      return RunningColumnExtremaN<1>(imax, imin, x0, x1, stride, omax, omin);
+    case 2:
+      return RunningColumnExtremaN<2>(imax, imin, x0, x1, stride, omax, omin);
+    case 3:
+      return RunningColumnExtremaN<3>(imax, imin, x0, x1, stride, omax, omin);
+    case 4:
+      return RunningColumnExtremaN<4>(imax, imin, x0, x1, stride, omax, omin);
+    case 5:
+      return RunningColumnExtremaN<5>(imax, imin, x0, x1, stride, omax, omin);
+    case 6:
+      return RunningColumnExtremaN<6>(imax, imin, x0, x1, stride, omax, omin);
+    case 7:
+      return RunningColumnExtremaN<7>(imax, imin, x0, x1, stride, omax, omin);
+    default:
+      return RunningColumnExtremaN<8>(imax, imin, x0, x1, stride, omax, omin);
+  }
+}
+
+// Non-maximum suppression by grey-level dilation: the (2n+1)x(2n+1) running maximum and minimum
+// are computed separably (rows, then columns) with branch-free loops the compiler vectorises;
+// a pixel is a maximum (minimum) feature when it equals the running maximum (minimum) and passes
+// the threshold. Plateaus are broken by keeping only the first pixel in raster order among equal
+// 8-neighbours.
+void SuppressNonExtrema(const int16_t* r, int w, int h, int lo_x, int hi_x, int lo_y, int hi_y,
+                        int n, int threshold, int scale, std::vector<int16_t>* scratch,
+                        std::vector<RawFeature>* maxima, std::vector<RawFeature>* minima) {
+  // Rows [lo_y - n, hi_y + n) and columns [lo_x - n, hi_x + n) must hold valid responses.
+  const int y0 = std::max(lo_y - n, 2), y1 = std::min(hi_y + n, h - 2);
+  // Columns: the row pass reads x - n .. x + n, which must stay inside the row.
+  const int x0 = std::max(lo_x, std::max(2, n)), x1 = std::min(hi_x, w - 2 - n);
+  if (x0 >= x1 || lo_y >= hi_y) return;
+  scratch->resize(static_cast<size_t>(2) * w * h + 3 * w + 8);
+  int16_t* rmax = scratch->data();
+  int16_t* rmin = rmax + static_cast<size_t>(w) * h;
+  int16_t* cmax = rmin + static_cast<size_t>(w) * h;
+  int16_t* cmin = cmax + w;
+  for (int y = y0; y < y1; ++y) {
+    RunningExtrema(r + static_cast<size_t>(y) * w, x0, x1, n, rmax + static_cast<size_t>(y) * w,
+                   rmin + static_cast<size_t>(y) * w);
+  }
+  for (int y = lo_y; y < hi_y; ++y) {
+    const int16_t* __restrict mx = cmax;
+    const int16_t* __restrict mn = cmin;
+    if (y - n >= y0 && y + n < y1) {
+      // Column pass: the same kernel with a stride of one row, centred on row y.
+      RunningColumnExtrema(rmax + static_cast<size_t>(y) * w, rmin + static_cast<size_t>(y) * w, x0,
+                           x1, n, w, cmax, cmin);
+    } else {
+      const int ya = std::max(y - n, y0), yb = std::min(y + n, y1 - 1);
+      for (int x = x0; x < x1; ++x) {
+        int16_t a = rmax[static_cast<size_t>(ya) * w + x],
+                b = rmin[static_cast<size_t>(ya) * w + x];
+        for (int yy = ya + 1; yy <= yb; ++yy) {
+          a = std::max(a, rmax[static_cast<size_t>(yy) * w + x]);
+          b = std::min(b, rmin[static_cast<size_t>(yy) * w + x]);
+        }
+        cmax[x] = a;
+        cmin[x] = b;
+      }
+    }
+    const int16_t* row = r + static_cast<size_t>(y) * w;
+    auto test = [&](int x) {
+      const int16_t val = row[x];
+      if (val == mx[x] && val >= threshold) {
+        // Plateau: an equal neighbour earlier in raster order wins.
+        if (row[x - 1] != val && row[x - w - 1] != val && row[x - w] != val &&
+            row[x - w + 1] != val) {
+          maxima->push_back(
+              {static_cast<int16_t>(x * scale), static_cast<int16_t>(y * scale), val});
+        }
+      } else if (val == mn[x] && val <= -threshold) {
+        if (row[x - 1] != val && row[x - w - 1] != val && row[x - w] != val &&
+            row[x - w + 1] != val) {
+          minima->push_back({static_cast<int16_t>(x * scale), static_cast<int16_t>(y * scale),
+                             static_cast<int16_t>(-val)});
+        }
+      }
+    };
+    // Candidates: 8 pixels at a time with SSE2 compares; the scalar test below only runs for
+    // pixels that equal the running maximum/minimum and pass the threshold.
+    int x = x0;
+#ifdef __SSE2__
+    const __m128i tau_m1 = _mm_set1_epi16(static_cast<int16_t>(threshold - 1));
+    const __m128i neg_tau_p1 = _mm_set1_epi16(static_cast<int16_t>(-threshold + 1));
+    for (; x + 8 <= x1; x += 8) {
+      const __m128i val = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + x));
+      const __m128i is_max = _mm_and_si128(
+          _mm_cmpeq_epi16(val, _mm_loadu_si128(reinterpret_cast<const __m128i*>(mx + x))),
+          _mm_cmpgt_epi16(val, tau_m1));
+      const __m128i is_min = _mm_and_si128(
+          _mm_cmpeq_epi16(val, _mm_loadu_si128(reinterpret_cast<const __m128i*>(mn + x))),
+          _mm_cmplt_epi16(val, neg_tau_p1));
+      int mask = _mm_movemask_epi8(_mm_or_si128(is_max, is_min));
+      while (mask != 0) {
+        const int lane = __builtin_ctz(mask) / 2;
+        mask &= ~(3 << (2 * lane));
+        test(x + lane);
+      }
+    }
+#endif
+    for (; x < x1; ++x) test(x);
+  }
+}
+
+}  // namespace
+
+bool FeatureOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  if (nms_radius < 1 || nms_radius > 8) {
+    msg << "nms_radius: must be in [1, 8], got " << nms_radius;
+  } else if (response_threshold < 0) {
+    msg << "response_threshold: must be >= 0, got " << response_threshold;
+  } else if (grid_cell_px < 4 || grid_cell_px > 256) {
+    msg << "grid_cell_px: must be in [4, 256], got " << grid_cell_px;
+  } else {
+    return true;
+  }
+  if (why) *why = msg.str();
+  return false;
+}
+
+int FeatureSet::TotalFeatures() const {
+  int n = 0;
+  for (const auto& c : classes_) n += c.size();
+  return n;
+}
+
+Descriptor FeatureSet::DescriptorAt(int u, int v) const {
+  MAV_CHECK(u >= kDescriptorMargin - 2 && u < width_ - kDescriptorMargin + 2 &&
+            v >= kDescriptorMargin - 2 && v < height_ - kDescriptorMargin + 2)
+      << "descriptor at (" << u << ", " << v << ") outside " << width_ << "x" << height_;
+  Descriptor d;
+  const uint8_t* su = sobel_u_.data() + v * width_ + u;
+  const uint8_t* sv = sobel_v_.data() + v * width_ + u;
+  for (int i = 0; i < 16; ++i) {
+    const int off = kPatternV[i] * width_ + kPatternU[i];
+    d.bytes[i] = su[off];
+    d.bytes[16 + i] = sv[off];
+  }
+  return d;
+}
+
+void ComputeFilterResponses(const ImageView& image, std::vector<int16_t>* blob,
+                            std::vector<int16_t>* corner, std::vector<int16_t>* scratch) {
+  const int w = image.width, h = image.height;
+  const size_t n = static_cast<size_t>(w) * h;
+  if (w < 5 || h < 5) {
+    blob->assign(n, 0);
+    corner->assign(n, 0);
+    return;
+  }
+  blob->resize(n);
+  corner->resize(n);
+  // Only the 2-pixel border needs clearing; the rest is overwritten below.
+  for (std::vector<int16_t>* r : {blob, corner}) {
+    std::fill(r->begin(), r->begin() + 2 * w, 0);
+    std::fill(r->end() - 2 * w, r->end(), 0);
+    for (int y = 2; y < h - 2; ++y) {
+      int16_t* row = r->data() + static_cast<size_t>(y) * w;
+      row[0] = row[1] = row[w - 2] = row[w - 1] = 0;
+    }
+  }
+  scratch->resize(3 * n);
+  // Horizontal running sums of width 2, 3 and 5 (int16: at most 5 * 255).
+  int16_t* h2 = scratch->data();
+  int16_t* h3 = h2 + n;
+  int16_t* h5 = h3 + n;
+  for (int y = 0; y < h; ++y) {
+    const uint8_t* __restrict in = image.data + static_cast<size_t>(y) * image.stride;
+    int16_t* __restrict r2 = h2 + y * w;
+    int16_t* __restrict r3 = h3 + y * w;
+    int16_t* __restrict r5 = h5 + y * w;
+    for (int x = 0; x < w - 1; ++x) r2[x] = static_cast<int16_t>(in[x] + in[x + 1]);
+    for (int x = 2; x < w - 2; ++x) {
+      const int16_t a = in[x - 2], b = in[x - 1], c = in[x], d = in[x + 1], e = in[x + 2];
+      r3[x] = b + c + d;
+      r5[x] = a + b + c + d + e;
+    }
+  }
+  // blob = 8 c + (inner ring) - (outer ring) = -S5 + 2 S3 + 7 c.
+  // corner = -TL + TR + BL - BR with 2x2 quadrants at offsets -2 and +1 from the centre.
+  for (int y = 2; y < h - 2; ++y) {
+    const uint8_t* __restrict in = image.data + static_cast<size_t>(y) * image.stride;
+    const int16_t* __restrict a5 = h5 + (y - 2) * w;
+    const int16_t* __restrict b5 = h5 + (y - 1) * w;
+    const int16_t* __restrict c5 = h5 + y * w;
+    const int16_t* __restrict d5 = h5 + (y + 1) * w;
+    const int16_t* __restrict e5 = h5 + (y + 2) * w;
+    const int16_t* __restrict b3 = h3 + (y - 1) * w;
+    const int16_t* __restrict c3 = h3 + y * w;
+    const int16_t* __restrict d3 = h3 + (y + 1) * w;
+    const int16_t* __restrict t0 = h2 + (y - 2) * w;
+    const int16_t* __restrict t1 = h2 + (y - 1) * w;
+    const int16_t* __restrict u0 = h2 + (y + 1) * w;
+    const int16_t* __restrict u1 = h2 + (y + 2) * w;
+    int16_t* __restrict ob = blob->data() + y * w;
+    int16_t* __restrict oc = corner->data() + y * w;
+    // Two loops with int16 arithmetic (no overflow: |blob| <= 6375, |corner| <= 2040) so the
+    // compiler vectorises each.
+    for (int x = 2; x < w - 2; ++x) {
+      const int16_t s5 = static_cast<int16_t>(a5[x] + b5[x] + c5[x] + d5[x] + e5[x]);
+      const int16_t s3 = static_cast<int16_t>(b3[x] + c3[x] + d3[x]);
+      const int16_t c = in[x];
+      ob[x] = static_cast<int16_t>(2 * s3 - s5 + 7 * c);
+    }
+    for (int x = 2; x < w - 2; ++x) {
+      const int16_t tl = static_cast<int16_t>(t0[x - 2] + t1[x - 2]);
+      const int16_t tr = static_cast<int16_t>(t0[x + 1] + t1[x + 1]);
+      const int16_t bl = static_cast<int16_t>(u0[x - 2] + u1[x - 2]);
+      const int16_t br = static_cast<int16_t>(u0[x + 1] + u1[x + 1]);
+      oc[x] = static_cast<int16_t>(tr + bl - tl - br);
+    }
+  }
+}
+
+FeatureExtractor::FeatureExtractor(const FeatureOptions& options) : options_(options) {
+  std::string why;
+  MAV_CHECK(options_.IsValid(&why)) << why;
+}
+
+void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
+  const int w = image.width, h = image.height;
+  out->width_ = w;
+  out->height_ = h;
+  out->cell_ = options_.grid_cell_px;
+  out->cols_ = (w + out->cell_ - 1) / out->cell_;
+  out->rows_ = (h + out->cell_ - 1) / out->cell_;
+  for (auto& c : out->classes_) {
+    c.u.clear();
+    c.v.clear();
+    c.strength.clear();
+    c.descriptors.clear();
+    c.cell_start.assign(static_cast<size_t>(out->cols_) * out->rows_ + 1, 0);
+  }
+  constexpr int m = FeatureSet::kDescriptorMargin;
+  if (w < 2 * m + 1 || h < 2 * m + 1 || image.data == nullptr) {
+    out->sobel_u_.assign(static_cast<size_t>(std::max(w, 0)) * std::max(h, 0), 128);
+    out->sobel_v_ = out->sobel_u_;
+    return;
+  }
+
+  // Sobel images (full resolution) for the descriptors.
+  const size_t n = static_cast<size_t>(w) * h;
+  out->sobel_u_.resize(n);
+  out->sobel_v_.resize(n);
+  for (std::vector<uint8_t>* sb : {&out->sobel_u_, &out->sobel_v_}) {
+    std::fill(sb->begin(), sb->begin() + w, 128);
+    std::fill(sb->end() - w, sb->end(), 128);
+    for (int y = 1; y < h - 1; ++y)
+      (*sb)[static_cast<size_t>(y) * w] = (*sb)[static_cast<size_t>(y) * w + w - 1] = 128;
+  }
+  scratch_.resize(2 * static_cast<size_t>(w));
+  for (int y = 1; y < h - 1; ++y) {
+    const uint8_t* __restrict p0 = image.data + static_cast<size_t>(y - 1) * image.stride;
+    const uint8_t* __restrict p1 = p0 + image.stride;
+    const uint8_t* __restrict p2 = p1 + image.stride;
+    int16_t* __restrict vs = scratch_.data();  // vertical [1 2 1] smoothing
+    int16_t* __restrict hd = vs + w;           // vertical [-1 0 1] difference
+    for (int x = 0; x < w; ++x) {
+      vs[x] = static_cast<int16_t>(p0[x] + 2 * p1[x] + p2[x]);
+      hd[x] = static_cast<int16_t>(p2[x] - p0[x]);
+    }
+    uint8_t* __restrict su = out->sobel_u_.data() + y * w;
+    uint8_t* __restrict sv = out->sobel_v_.data() + y * w;
+    for (int x = 1; x < w - 1; ++x) {
+      const int gu = vs[x + 1] - vs[x - 1];
+      const int gv = hd[x - 1] + 2 * hd[x] + hd[x + 1];
+      su[x] = SobelToByte(gu);
+      sv[x] = SobelToByte(gv);
+    }
+  }
+
+  // Filter responses on the detection image.
+  ImageView det = image;
+  int scale = 1;
+  if (options_.half_resolution) {
+    const int hw = w / 2, hh = h / 2;
+    half_.resize(static_cast<size_t>(hw) * hh);
+    for (int y = 0; y < hh; ++y) {
+      const uint8_t* __restrict r0 = image.data + static_cast<size_t>(2 * y) * image.stride;
+      const uint8_t* __restrict r1 = r0 + image.stride;
+      uint8_t* __restrict o = half_.data() + y * hw;
+      for (int x = 0; x < hw; ++x) {
+        o[x] =
+            static_cast<uint8_t>((r0[2 * x] + r0[2 * x + 1] + r1[2 * x] + r1[2 * x + 1] + 2) >> 2);
+      }
+    }
+    det = ImageView{half_.data(), hw, hh, hw};
+    scale = 2;
+  }
+  ComputeFilterResponses(det, &blob_, &corner_, &scratch_);
+
+  // Candidate range in detection pixels such that full-resolution positions keep the margin.
+  const int lo = (m + scale - 1) / scale;
+  const int hi_x = (w - m - 1) / scale + 1;  // exclusive
+  const int hi_y = (h - m - 1) / scale + 1;
+  std::array<std::vector<RawFeature>, kNumFeatureClasses> raw;
+  for (auto& r : raw) r.reserve(4096);
+  SuppressNonExtrema(blob_.data(), det.width, det.height, lo, hi_x, lo, hi_y, options_.nms_radius,
+                     options_.response_threshold, scale, &scratch_, &raw[kBlobMax], &raw[kBlobMin]);
+  SuppressNonExtrema(corner_.data(), det.width, det.height, lo, hi_x, lo, hi_y, options_.nms_radius,
+                     options_.response_threshold, scale, &scratch_, &raw[kCornerMax],
+                     &raw[kCornerMin]);
+
+  // Counting sort by grid cell, then descriptors in sorted order.
+  const int cell = out->cell_, cols = out->cols_;
+  for (int k = 0; k < kNumFeatureClasses; ++k) {
+    FeatureSet::Class& c = out->classes_[k];
+    const std::vector<RawFeature>& r = raw[k];
+    std::vector<int32_t>& start = c.cell_start;
+    for (const RawFeature& f : r) ++start[(f.v / cell) * cols + f.u / cell + 1];
+    for (size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
+    order_.assign(r.size(), 0);
+    std::vector<int32_t> fill(start.begin(), start.end() - 1);
+    for (size_t i = 0; i < r.size(); ++i)
+      order_[fill[(r[i].v / cell) * cols + r[i].u / cell]++] = i;
+    c.u.resize(r.size());
+    c.v.resize(r.size());
+    c.strength.resize(r.size());
+    c.descriptors.resize(r.size());
+    for (size_t i = 0; i < r.size(); ++i) {
+      const RawFeature& f = r[order_[i]];
+      c.u[i] = f.u;
+      c.v[i] = f.v;
+      c.strength[i] = f.strength;
+      c.descriptors[i] = out->DescriptorAt(f.u, f.v);
+    }
+  }
+}
+
+}  // namespace mav::localization

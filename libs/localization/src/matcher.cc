@@ -1,0 +1,352 @@
+#include "mav/localization/matcher.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include <Eigen/Core>
+
+namespace mav::localization {
+namespace {
+
+struct Best {
+  int index = -1;
+  uint32_t cost = std::numeric_limits<uint32_t>::max();
+};
+
+// Best match of `d` among the features of class `c` inside [u0, u1] x [v0, v1] (inclusive).
+// Features are sorted by cell in row-major cell order, so the cells of one grid row that the
+// window overlaps form one contiguous range.
+Best FindBest(const FeatureSet& fs, const FeatureSet::Class& c, const Descriptor& d, int u0, int u1,
+              int v0, int v1) {
+  Best best;
+  u0 = std::max(u0, 0);
+  v0 = std::max(v0, 0);
+  u1 = std::min(u1, fs.width() - 1);
+  v1 = std::min(v1, fs.height() - 1);
+  if (u0 > u1 || v0 > v1 || c.u.empty()) return best;
+  const int cell = fs.grid_cell_px(), cols = fs.grid_cols();
+  const int cx0 = u0 / cell, cx1 = u1 / cell, cy0 = v0 / cell, cy1 = v1 / cell;
+  for (int cy = cy0; cy <= cy1; ++cy) {
+    const int first = c.cell_start[cy * cols + cx0];
+    const int last = c.cell_start[cy * cols + cx1 + 1];
+    for (int i = first; i < last; ++i) {
+      const int u = c.u[i], v = c.v[i];
+      if (u < u0 || u > u1 || v < v0 || v > v1) continue;
+      const uint32_t cost = DescriptorSad(d, c.descriptors[i]);
+      if (cost < best.cost) {
+        best.cost = cost;
+        best.index = i;
+      }
+    }
+  }
+  return best;
+}
+
+// Projects the point of a stereo feature (left pixel, disparity) through a rigid motion into
+// the left (right = false) or right image. False if the point ends up behind the camera.
+struct MotionPredictor {
+  double fx, fy, cx, cy, b;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+
+  bool Predict(double u, double v, double disparity, bool right, double* pu, double* pv) const {
+    const double z = fx * b / disparity;
+    const Eigen::Vector3d x((u - cx) / fx * z, (v - cy) / fy * z, z);
+    const Eigen::Vector3d p = R * x + t;
+    if (p.z() < 0.05) return false;
+    *pu = fx * (p.x() - (right ? b : 0.0)) / p.z() + cx;
+    *pv = fy * p.y() / p.z() + cy;
+    return std::abs(*pu) < 1e5 && std::abs(*pv) < 1e5;
+  }
+};
+
+// Sum of squared differences of both Sobel images over a (2r+1)^2 window.
+int64_t WindowSsd(const FeatureSet& ref, int ru, int rv, const FeatureSet& tgt, int tu, int tv,
+                  int r) {
+  const int w = ref.width();
+#ifdef __SSE2__
+  if (r <= 3) {
+    // 8 bytes per row (the window plus padding masked out), widened to 16 bits; pmaddwd squares
+    // and pairs them.
+    const __m128i zero = _mm_setzero_si128();
+    const __m128i mask = _mm_cmplt_epi16(_mm_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7),
+                                         _mm_set1_epi16(static_cast<int16_t>(2 * r + 1)));
+    __m128i acc = _mm_setzero_si128();
+    const std::vector<uint8_t>* ref_images[2] = {&ref.sobel_u(), &ref.sobel_v()};
+    const std::vector<uint8_t>* tgt_images[2] = {&tgt.sobel_u(), &tgt.sobel_v()};
+    for (int c = 0; c < 2; ++c) {
+      for (int dy = -r; dy <= r; ++dy) {
+        const uint8_t* a = ref_images[c]->data() + (rv + dy) * w + ru - r;
+        const uint8_t* b = tgt_images[c]->data() + (tv + dy) * w + tu - r;
+        const __m128i va =
+            _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(a)), zero);
+        const __m128i vb =
+            _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(b)), zero);
+        const __m128i d = _mm_and_si128(_mm_sub_epi16(va, vb), mask);
+        acc = _mm_add_epi32(acc, _mm_madd_epi16(d, d));
+      }
+    }
+    acc = _mm_add_epi32(acc, _mm_srli_si128(acc, 8));
+    acc = _mm_add_epi32(acc, _mm_srli_si128(acc, 4));
+    return _mm_cvtsi128_si32(acc);
+  }
+#endif
+  int64_t sum = 0;
+  for (int dy = -r; dy <= r; ++dy) {
+    const uint8_t* au = ref.sobel_u().data() + (rv + dy) * w + ru;
+    const uint8_t* av = ref.sobel_v().data() + (rv + dy) * w + ru;
+    const uint8_t* bu = tgt.sobel_u().data() + (tv + dy) * w + tu;
+    const uint8_t* bv = tgt.sobel_v().data() + (tv + dy) * w + tu;
+    int row = 0;
+    for (int dx = -r; dx <= r; ++dx) {
+      const int eu = int(au[dx]) - int(bu[dx]);
+      const int ev = int(av[dx]) - int(bv[dx]);
+      row += eu * eu + ev * ev;
+    }
+    sum += row;
+  }
+  return sum;
+}
+
+// Vertex offset of the parabola through (-1, a), (0, b), (1, c), clamped to [-0.5, 0.5].
+double ParabolaVertex(double a, double b, double c) {
+  const double denom = a - 2.0 * b + c;
+  if (!(denom > 0)) return 0.0;
+  return std::clamp(0.5 * (a - c) / denom, -0.5, 0.5);
+}
+
+void RefineOne(const FeatureSet& ref, int ru, int rv, const FeatureSet& tgt, int r, float* u,
+               float* v) {
+  int cu = static_cast<int>(std::lround(*u)), cv = static_cast<int>(std::lround(*v));
+  const int lo = r + 2, hi_u = tgt.width() - r - 3, hi_v = tgt.height() - r - 3;
+  int64_t cost[3][3];
+  for (int step = 0; step < 3; ++step) {
+    if (cu < lo || cu > hi_u || cv < lo || cv > hi_v) return;  // too close to the border
+    int bi = 1, bj = 1;
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) {
+        cost[j][i] = WindowSsd(ref, ru, rv, tgt, cu + i - 1, cv + j - 1, r);
+        if (cost[j][i] < cost[bj][bi]) {
+          bi = i;
+          bj = j;
+        }
+      }
+    }
+    if ((bi == 1 && bj == 1) || step == 2) {
+      if (bi != 1 || bj != 1) return;  // no minimum found within two moves: keep as is
+      *u = static_cast<float>(cu + ParabolaVertex(cost[1][0], cost[1][1], cost[1][2]));
+      *v = static_cast<float>(cv + ParabolaVertex(cost[0][1], cost[1][1], cost[2][1]));
+      return;
+    }
+    cu += bi - 1;
+    cv += bj - 1;
+  }
+}
+
+}  // namespace
+
+bool MatcherOptions::IsValid(std::string* why) const {
+  std::ostringstream msg;
+  if (stereo_row_tolerance_px < 0 || stereo_row_tolerance_px > 8) {
+    msg << "stereo_row_tolerance_px: must be in [0, 8], got " << stereo_row_tolerance_px;
+  } else if (min_disparity_px < 0) {
+    msg << "min_disparity_px: must be >= 0, got " << min_disparity_px;
+  } else if (max_disparity_px <= min_disparity_px) {
+    msg << "max_disparity_px: must exceed min_disparity_px (" << min_disparity_px << "), got "
+        << max_disparity_px;
+  } else if (search_radius_px < 1) {
+    msg << "search_radius_px: must be >= 1, got " << search_radius_px;
+  } else if (search_radius_no_prior_px < 1) {
+    msg << "search_radius_no_prior_px: must be >= 1, got " << search_radius_no_prior_px;
+  } else if (loop_tolerance_px < 0 || loop_tolerance_px > 4) {
+    msg << "loop_tolerance_px: must be in [0, 4], got " << loop_tolerance_px;
+  } else if (bucket_width_px < 1 || bucket_height_px < 1) {
+    msg << "bucket_width_px/bucket_height_px: must be >= 1, got " << bucket_width_px << "x"
+        << bucket_height_px;
+  } else if (max_starts_per_bucket < 0) {
+    msg << "max_starts_per_bucket: must be >= 0, got " << max_starts_per_bucket;
+  } else if (bucket_max_matches < 1) {
+    msg << "bucket_max_matches: must be >= 1, got " << bucket_max_matches;
+  } else if (refine_half_window_px < 1 || refine_half_window_px > 4) {
+    msg << "refine_half_window_px: must be in [1, 4], got " << refine_half_window_px;
+  } else {
+    return true;
+  }
+  if (why) *why = msg.str();
+  return false;
+}
+
+void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
+                   const FeatureSet& cur_left, const FeatureSet& cur_right,
+                   const camera::RectifiedStereo& rig, const geometry::SE3* T_cur_prev_predicted,
+                   const MatcherOptions& options, std::vector<QuadMatch>* matches) {
+  matches->clear();
+  const int tol = options.stereo_row_tolerance_px;
+  const int dmin = options.min_disparity_px, dmax = options.max_disparity_px;
+  const bool prior = options.use_motion_prior && T_cur_prev_predicted != nullptr;
+  const int radius = prior ? options.search_radius_px : options.search_radius_no_prior_px;
+  const int loop_tol = options.loop_tolerance_px;
+  const geometry::SE3 T_cur_prev_predicted_or_identity =
+      prior ? *T_cur_prev_predicted : geometry::SE3();
+  const MotionPredictor forward{rig.fx,
+                                rig.fy,
+                                rig.cx,
+                                rig.cy,
+                                rig.baseline,
+                                T_cur_prev_predicted_or_identity.RotationMatrix(),
+                                T_cur_prev_predicted_or_identity.Translation()};
+  const geometry::SE3 T_prev_cur = T_cur_prev_predicted_or_identity.Inverse();
+  const MotionPredictor backward{rig.fx,
+                                 rig.fy,
+                                 rig.cx,
+                                 rig.cy,
+                                 rig.baseline,
+                                 T_prev_cur.RotationMatrix(),
+                                 T_prev_cur.Translation()};
+
+  // Start features, optionally only the strongest few per bucket of the previous left image.
+  struct Start {
+    int16_t strength;
+    int16_t feature_class;
+    int32_t index;
+  };
+  std::vector<Start> starts;
+  const int bw = options.bucket_width_px, bh = options.bucket_height_px;
+  const int bcols = std::max(1, (prev_left.width() + bw - 1) / bw);
+  const int brows = std::max(1, (prev_left.height() + bh - 1) / bh);
+  std::vector<int32_t> bucket_start(static_cast<size_t>(bcols) * brows + 1, 0);
+  auto bucket_of = [&](int u, int v) {
+    return std::min(v / bh, brows - 1) * bcols + std::min(u / bw, bcols - 1);
+  };
+  for (int k = 0; k < kNumFeatureClasses; ++k) {
+    const FeatureSet::Class& pl = prev_left.features(k);
+    for (int i = 0; i < pl.size(); ++i) ++bucket_start[bucket_of(pl.u[i], pl.v[i]) + 1];
+  }
+  for (size_t b = 1; b < bucket_start.size(); ++b) bucket_start[b] += bucket_start[b - 1];
+  starts.resize(bucket_start.back());
+  {
+    std::vector<int32_t> fill(bucket_start.begin(), bucket_start.end() - 1);
+    for (int k = 0; k < kNumFeatureClasses; ++k) {
+      const FeatureSet::Class& pl = prev_left.features(k);
+      for (int i = 0; i < pl.size(); ++i) {
+        starts[fill[bucket_of(pl.u[i], pl.v[i])]++] = {pl.strength[i], static_cast<int16_t>(k), i};
+      }
+    }
+  }
+  if (options.max_starts_per_bucket > 0) {
+    const int p = options.max_starts_per_bucket;
+    size_t out = 0;
+    for (size_t b = 0; b + 1 < bucket_start.size(); ++b) {
+      auto first = starts.begin() + bucket_start[b], last = starts.begin() + bucket_start[b + 1];
+      if (last - first > p) {
+        std::partial_sort(first, first + p, last, [](const Start& a, const Start& c) {
+          if (a.strength != c.strength) return a.strength > c.strength;
+          if (a.feature_class != c.feature_class) return a.feature_class < c.feature_class;
+          return a.index < c.index;
+        });
+        last = first + p;
+      }
+      for (auto it = first; it != last; ++it) starts[out++] = *it;
+    }
+    starts.resize(out);
+  }
+
+  for (const Start& start : starts) {
+    const int k = start.feature_class, i = start.index;
+    const FeatureSet::Class& pl = prev_left.features(k);
+    const FeatureSet::Class& pr = prev_right.features(k);
+    const FeatureSet::Class& cl = cur_left.features(k);
+    const FeatureSet::Class& cr = cur_right.features(k);
+    {
+      const int u_i = pl.u[i], v_i = pl.v[i];
+      // 1. previous left -> previous right (same row, positive disparity).
+      const Best j =
+          FindBest(prev_right, pr, pl.descriptors[i], u_i - dmax, u_i - dmin, v_i - tol, v_i + tol);
+      if (j.index < 0) continue;
+      const int u_j = pr.u[j.index], v_j = pr.v[j.index];
+      // 2. previous right -> current right (motion window).
+      double pu = u_j, pv = v_j;
+      if (prior) forward.Predict(u_i, v_i, u_i - u_j, /*right=*/true, &pu, &pv);
+      const int cu = static_cast<int>(std::lround(pu)), cv = static_cast<int>(std::lround(pv));
+      const Best kk = FindBest(cur_right, cr, pr.descriptors[j.index], cu - radius, cu + radius,
+                               cv - radius, cv + radius);
+      if (kk.index < 0) continue;
+      const int u_k = cr.u[kk.index], v_k = cr.v[kk.index];
+      // 3. current right -> current left (same row, positive disparity).
+      const Best l = FindBest(cur_left, cl, cr.descriptors[kk.index], u_k + dmin, u_k + dmax,
+                              v_k - tol, v_k + tol);
+      if (l.index < 0) continue;
+      const int u_l = cl.u[l.index], v_l = cl.v[l.index];
+      // 4. current left -> previous left (motion window); the loop must return to feature i.
+      double qu = u_l, qv = v_l;
+      if (prior) backward.Predict(u_l, v_l, u_l - u_k, /*right=*/false, &qu, &qv);
+      const int bu = static_cast<int>(std::lround(qu)), bv = static_cast<int>(std::lround(qv));
+      const Best m = FindBest(prev_left, pl, cl.descriptors[l.index], bu - radius, bu + radius,
+                              bv - radius, bv + radius);
+      if (m.index < 0) continue;
+      if (m.index != i &&
+          (std::abs(pl.u[m.index] - u_i) > loop_tol || std::abs(pl.v[m.index] - v_i) > loop_tol)) {
+        continue;
+      }
+      QuadMatch q;
+      q.u_prev_left = static_cast<float>(u_i);
+      q.v_prev_left = static_cast<float>(v_i);
+      q.u_prev_right = static_cast<float>(u_j);
+      q.v_prev_right = static_cast<float>(v_j);
+      q.u_cur_left = static_cast<float>(u_l);
+      q.v_cur_left = static_cast<float>(v_l);
+      q.u_cur_right = static_cast<float>(u_k);
+      q.v_cur_right = static_cast<float>(v_k);
+      q.cost = j.cost + kk.cost + l.cost + m.cost;
+      q.feature_class = k;
+      matches->push_back(q);
+    }
+  }
+}
+
+void BucketMatches(const MatcherOptions& options, int image_width, int image_height,
+                   std::vector<QuadMatch>* matches) {
+  const int bw = options.bucket_width_px, bh = options.bucket_height_px;
+  const int cols = std::max(1, (image_width + bw - 1) / bw);
+  const int rows = std::max(1, (image_height + bh - 1) / bh);
+  auto bucket = [&](const QuadMatch& q) {
+    const int c = std::clamp(static_cast<int>(q.u_cur_left) / bw, 0, cols - 1);
+    const int r = std::clamp(static_cast<int>(q.v_cur_left) / bh, 0, rows - 1);
+    return r * cols + c;
+  };
+  std::sort(matches->begin(), matches->end(), [&](const QuadMatch& a, const QuadMatch& b) {
+    const int ba = bucket(a), bb = bucket(b);
+    if (ba != bb) return ba < bb;
+    if (a.cost != b.cost) return a.cost < b.cost;
+    if (a.v_prev_left != b.v_prev_left) return a.v_prev_left < b.v_prev_left;
+    if (a.u_prev_left != b.u_prev_left) return a.u_prev_left < b.u_prev_left;
+    return a.feature_class < b.feature_class;
+  });
+  size_t out = 0;
+  int current = -1, count = 0;
+  for (size_t i = 0; i < matches->size(); ++i) {
+    const int b = bucket((*matches)[i]);
+    if (b != current) {
+      current = b;
+      count = 0;
+    }
+    if (count++ < options.bucket_max_matches) (*matches)[out++] = (*matches)[i];
+  }
+  matches->resize(out);
+}
+
+void RefineMatchesSubpixel(const FeatureSet& prev_left, const FeatureSet& prev_right,
+                           const FeatureSet& cur_left, const FeatureSet& cur_right,
+                           const MatcherOptions& options, std::vector<QuadMatch>* matches) {
+  const int r = options.refine_half_window_px;
+  for (QuadMatch& q : *matches) {
+    const int ru = static_cast<int>(q.u_prev_left), rv = static_cast<int>(q.v_prev_left);
+    RefineOne(prev_left, ru, rv, prev_right, r, &q.u_prev_right, &q.v_prev_right);
+    RefineOne(prev_left, ru, rv, cur_left, r, &q.u_cur_left, &q.v_cur_left);
+    RefineOne(prev_left, ru, rv, cur_right, r, &q.u_cur_right, &q.v_cur_right);
+  }
+}
+
+}  // namespace mav::localization

@@ -1,0 +1,254 @@
+#include "mav/localization/sparse_vo.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+#include <opencv2/core.hpp>
+
+namespace mav::localization {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+Status CheckImage(const char* name, const cv::Mat& image, const camera::RectifiedStereo& rig) {
+  std::ostringstream msg;
+  msg << name << ": ";
+  if (image.empty()) {
+    msg << "empty image";
+  } else if (image.type() != CV_8UC1) {
+    msg << "expected an 8-bit single-channel image (CV_8UC1), got OpenCV type " << image.type();
+  } else if (image.cols != rig.width || image.rows != rig.height) {
+    msg << "size " << image.cols << "x" << image.rows << " differs from the rig's " << rig.width
+        << "x" << rig.height;
+  } else {
+    return Status::Ok();
+  }
+  return Status::InvalidArgument(msg.str());
+}
+
+ImageView ViewOf(const cv::Mat& m) {
+  return ImageView{m.data, m.cols, m.rows, static_cast<int>(m.step[0])};
+}
+
+}  // namespace
+
+const char* TrackingStateName(TrackingState state) {
+  switch (state) {
+    case TrackingState::kOk:
+      return "OK";
+    case TrackingState::kLost:
+      return "LOST";
+  }
+  return "UNKNOWN";
+}
+
+const char* SparseVoModeName(SparseVoMode mode) {
+  return mode == SparseVoMode::kPixel ? "pixel" : "subpixel";
+}
+
+bool SparseVoOptions::IsValid(std::string* why) const {
+  std::string inner;
+  if (!features.IsValid(&inner)) {
+    if (why) *why = "features." + inner;
+    return false;
+  }
+  if (!matcher.IsValid(&inner)) {
+    if (why) *why = "matcher." + inner;
+    return false;
+  }
+  if (!motion.IsValid(&inner)) {
+    if (why) *why = "motion." + inner;
+    return false;
+  }
+  if (!(pixel_inlier_threshold_px > 0) || !(subpixel_inlier_threshold_px > 0)) {
+    if (why) {
+      *why = "pixel_inlier_threshold_px/subpixel_inlier_threshold_px: must be > 0, got " +
+             std::to_string(pixel_inlier_threshold_px) + "/" +
+             std::to_string(subpixel_inlier_threshold_px);
+    }
+    return false;
+  }
+  if (min_matches < 3) {
+    if (why) *why = "min_matches: must be >= 3, got " + std::to_string(min_matches);
+    return false;
+  }
+  if (!(max_translation_per_frame_m > 0)) {
+    if (why) {
+      *why = "max_translation_per_frame_m: must be > 0, got " +
+             std::to_string(max_translation_per_frame_m);
+    }
+    return false;
+  }
+  return true;
+}
+
+struct SparseVo::Impl {
+  Impl(const camera::RectifiedStereo& r, const SparseVoOptions& o)
+      : rig(r), options(o), extractor(o.features) {}
+
+  camera::RectifiedStereo rig;
+  SparseVoOptions options;
+  FeatureExtractor extractor;
+  FeatureSet prev_left, prev_right, cur_left, cur_right;
+  bool has_reference = false;
+  geometry::SE3 T_world_cam;
+  geometry::SE3 T_cur_prev_prior;  // last estimated motion (constant-velocity prediction)
+  bool prior_valid = false;
+  int64_t frames = 0;
+  std::vector<QuadMatch> matches;
+  std::vector<int> inliers;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<StereoObservation> observations;
+  std::vector<int> match_of_point;
+
+  void AdoptCurrentAsReference() {
+    std::swap(prev_left, cur_left);
+    std::swap(prev_right, cur_right);
+    has_reference = true;
+  }
+};
+
+SparseVo::SparseVo(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+SparseVo::SparseVo(SparseVo&&) noexcept = default;
+SparseVo& SparseVo::operator=(SparseVo&&) noexcept = default;
+SparseVo::~SparseVo() = default;
+
+Result<SparseVo> SparseVo::Create(const camera::RectifiedStereo& rig,
+                                  const SparseVoOptions& options) {
+  std::string why;
+  if (!rig.IsValid(&why)) return Status::InvalidArgument("rig: " + why);
+  if (!options.IsValid(&why)) return Status::InvalidArgument("options." + why);
+  return SparseVo(std::make_unique<Impl>(rig, options));
+}
+
+void SparseVo::Reset() {
+  impl_->has_reference = false;
+  impl_->T_world_cam = geometry::SE3();
+  impl_->T_cur_prev_prior = geometry::SE3();
+  impl_->prior_valid = false;
+  impl_->frames = 0;
+  impl_->matches.clear();
+  impl_->inliers.clear();
+}
+
+const geometry::SE3& SparseVo::T_world_cam() const { return impl_->T_world_cam; }
+const SparseVoOptions& SparseVo::options() const { return impl_->options; }
+const camera::RectifiedStereo& SparseVo::rig() const { return impl_->rig; }
+int64_t SparseVo::frames_processed() const { return impl_->frames; }
+const std::vector<QuadMatch>& SparseVo::last_matches() const { return impl_->matches; }
+const std::vector<int>& SparseVo::last_inliers() const { return impl_->inliers; }
+
+Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
+                                             const cv::Mat& right) {
+  Impl& s = *impl_;
+  MAV_RETURN_IF_ERROR(CheckImage("left", left, s.rig));
+  MAV_RETURN_IF_ERROR(CheckImage("right", right, s.rig));
+  const SparseVoOptions& opt = s.options;
+  const auto t_start = Clock::now();
+
+  VoFrameResult result;
+  result.t_ns = t_ns;
+  result.frame_index = s.frames++;
+  s.matches.clear();
+  s.inliers.clear();
+  auto finish = [&](TrackingState state, std::string reason) {
+    result.state = state;
+    result.lost_reason = std::move(reason);
+    if (state == TrackingState::kLost) s.prior_valid = false;
+    result.T_world_cam = s.T_world_cam;
+    result.timing.total_ms = MsSince(t_start);
+    return result;
+  };
+
+  // 1. Features of the current pair.
+  auto t0 = Clock::now();
+  s.extractor.Extract(ViewOf(left), &s.cur_left);
+  s.extractor.Extract(ViewOf(right), &s.cur_right);
+  result.num_features = s.cur_left.TotalFeatures();
+  const int num_right = s.cur_right.TotalFeatures();
+  result.timing.features_ms = MsSince(t0);
+  if (result.num_features < opt.min_matches || num_right < opt.min_matches) {
+    s.has_reference = false;  // nothing to match the next pair against
+    return finish(TrackingState::kLost, "too few features: " + std::to_string(result.num_features) +
+                                            " left, " + std::to_string(num_right) + " right (min " +
+                                            std::to_string(opt.min_matches) + ")");
+  }
+  if (!s.has_reference) {
+    result.reference_reset = true;
+    s.AdoptCurrentAsReference();
+    return finish(TrackingState::kOk, "");
+  }
+
+  // 2 + 3. Matching and motion; with a motion prediction first (small windows), and if that
+  // fails once more with the wide windows around the same pixel.
+  StereoMotionEstimate est;
+  result.num_matches = 0;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const bool use_prior = attempt == 0 && s.prior_valid && opt.matcher.use_motion_prior;
+    if (attempt == 1 && !(s.prior_valid && opt.matcher.use_motion_prior)) break;
+    t0 = Clock::now();
+    MatchCircular(s.prev_left, s.prev_right, s.cur_left, s.cur_right, s.rig,
+                  use_prior ? &s.T_cur_prev_prior : nullptr, opt.matcher, &s.matches);
+    BucketMatches(opt.matcher, s.rig.width, s.rig.height, &s.matches);
+    if (opt.mode == SparseVoMode::kSubpixel) {
+      RefineMatchesSubpixel(s.prev_left, s.prev_right, s.cur_left, s.cur_right, opt.matcher,
+                            &s.matches);
+    }
+    result.num_matches = static_cast<int>(s.matches.size());
+    result.timing.matching_ms += MsSince(t0);
+    if (result.num_matches < opt.min_matches) {
+      est.ok = false;
+      est.failure = "too few matches: " + std::to_string(result.num_matches) + " (min " +
+                    std::to_string(opt.min_matches) + ")";
+      continue;
+    }
+    t0 = Clock::now();
+    s.points.clear();
+    s.observations.clear();
+    s.match_of_point.clear();
+    for (size_t i = 0; i < s.matches.size(); ++i) {
+      const QuadMatch& q = s.matches[i];
+      const double disparity = q.u_prev_left - q.u_prev_right;
+      if (!(disparity > 0.1)) continue;
+      const double z = s.rig.DepthFromDisparity(disparity);
+      s.points.emplace_back((q.u_prev_left - s.rig.cx) / s.rig.fx * z,
+                            (q.v_prev_left - s.rig.cy) / s.rig.fy * z, z);
+      s.observations.emplace_back(q.u_cur_left, q.v_cur_left, q.u_cur_right, q.v_cur_right);
+      s.match_of_point.push_back(static_cast<int>(i));
+    }
+    StereoMotionOptions motion = opt.motion;
+    motion.seed = opt.motion.seed + static_cast<uint64_t>(result.frame_index);
+    motion.inlier_threshold_px = opt.mode == SparseVoMode::kPixel
+                                     ? opt.pixel_inlier_threshold_px
+                                     : opt.subpixel_inlier_threshold_px;
+    est = EstimateStereoMotion(s.rig, s.points, s.observations, motion);
+    result.timing.estimation_ms += MsSince(t0);
+    // A wrong prediction shows as few matches or a low inlier ratio: retry without it.
+    if (est.ok && 2 * est.inliers.size() >= s.points.size()) break;
+  }
+  s.AdoptCurrentAsReference();
+  if (!est.ok) return finish(TrackingState::kLost, est.failure);
+  const double step = est.T_cur_prev.Translation().norm();
+  if (!(step <= opt.max_translation_per_frame_m)) {
+    std::ostringstream msg;
+    msg << "implausible motion: " << step << " m in one frame (max "
+        << opt.max_translation_per_frame_m << ")";
+    return finish(TrackingState::kLost, msg.str());
+  }
+  for (int i : est.inliers) s.inliers.push_back(s.match_of_point[i]);
+  result.num_inliers = static_cast<int>(est.inliers.size());
+  result.mean_reprojection_error_px = est.mean_error_px;
+  result.T_prev_cur = est.T_cur_prev.Inverse();
+  s.T_world_cam = s.T_world_cam * result.T_prev_cur;
+  s.T_cur_prev_prior = est.T_cur_prev;
+  s.prior_valid = true;
+  return finish(TrackingState::kOk, "");
+}
+
+}  // namespace mav::localization

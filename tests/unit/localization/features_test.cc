@@ -1,0 +1,160 @@
+#include "mav/localization/features.h"
+
+#include <cstdlib>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "synthetic_stereo.h"
+
+namespace mav::localization {
+namespace {
+
+// The StereoScan masks, written out.
+constexpr int kBlob[5][5] = {{-1, -1, -1, -1, -1},
+                             {-1, 1, 1, 1, -1},
+                             {-1, 1, 8, 1, -1},
+                             {-1, 1, 1, 1, -1},
+                             {-1, -1, -1, -1, -1}};
+constexpr int kCorner[5][5] = {
+    {-1, -1, 0, 1, 1}, {-1, -1, 0, 1, 1}, {0, 0, 0, 0, 0}, {1, 1, 0, -1, -1}, {1, 1, 0, -1, -1}};
+
+std::vector<uint8_t> RandomImage(int w, int h, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<uint8_t> img(static_cast<size_t>(w) * h);
+  for (auto& p : img) p = static_cast<uint8_t>(rng() & 0xff);
+  return img;
+}
+
+TEST(FeaturesTest, FilterResponsesEqualDirectConvolution) {
+  const int w = 61, h = 37;
+  const std::vector<uint8_t> img = RandomImage(w, h, 1);
+  std::vector<int16_t> blob, corner, scratch;
+  ComputeFilterResponses({img.data(), w, h, w}, &blob, &corner, &scratch);
+  for (int y = 2; y < h - 2; ++y)
+    for (int x = 2; x < w - 2; ++x) {
+      int b = 0, c = 0;
+      for (int j = -2; j <= 2; ++j)
+        for (int i = -2; i <= 2; ++i) {
+          b += kBlob[j + 2][i + 2] * img[(y + j) * w + x + i];
+          c += kCorner[j + 2][i + 2] * img[(y + j) * w + x + i];
+        }
+      ASSERT_EQ(blob[y * w + x], b) << "blob at " << x << "," << y;
+      ASSERT_EQ(corner[y * w + x], c) << "corner at " << x << "," << y;
+    }
+}
+
+TEST(FeaturesTest, SadMatchesScalarDefinition) {
+  std::mt19937_64 rng(3);
+  for (int trial = 0; trial < 100; ++trial) {
+    Descriptor a, b;
+    uint32_t expected = 0;
+    for (int i = 0; i < 32; ++i) {
+      a.bytes[i] = static_cast<uint8_t>(rng());
+      b.bytes[i] = static_cast<uint8_t>(rng());
+      expected += std::abs(int(a.bytes[i]) - int(b.bytes[i]));
+    }
+    ASSERT_EQ(DescriptorSad(a, b), expected);
+  }
+}
+
+// Every feature is an extremum of its neighbourhood, above the threshold, inside the
+// margin, in the right class; the grid index covers every feature exactly once.
+void CheckFeatures(const std::vector<uint8_t>& img, int w, int h, const FeatureOptions& options,
+                   const FeatureSet& fs) {
+  std::vector<int16_t> blob, corner, scratch;
+  ComputeFilterResponses({img.data(), w, h, w}, &blob, &corner, &scratch);
+  const int n = options.nms_radius, m = FeatureSet::kDescriptorMargin;
+  int total = 0;
+  for (int k = 0; k < kNumFeatureClasses; ++k) {
+    const FeatureSet::Class& c = fs.features(k);
+    const std::vector<int16_t>& r = (k == kBlobMax || k == kBlobMin) ? blob : corner;
+    const int sign = (k == kBlobMax || k == kCornerMax) ? 1 : -1;
+    ASSERT_EQ(c.cell_start.back(), c.size());
+    for (int i = 0; i < c.size(); ++i) {
+      const int u = c.u[i], v = c.v[i];
+      ASSERT_GE(u, m);
+      ASSERT_LT(u, w - m);
+      ASSERT_GE(v, m);
+      ASSERT_LT(v, h - m);
+      const int cell = (v / fs.grid_cell_px()) * fs.grid_cols() + u / fs.grid_cell_px();
+      ASSERT_GE(i, c.cell_start[cell]);
+      ASSERT_LT(i, c.cell_start[cell + 1]);
+      const int val = sign * r[v * w + u];
+      ASSERT_GE(val, options.response_threshold);
+      for (int dy = -n; dy <= n; ++dy)
+        for (int dx = -n; dx <= n; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          const int other = sign * r[(v + dy) * w + u + dx];
+          ASSERT_LE(other, val) << "class " << k << " at " << u << "," << v;
+          // Plateaus: an equal 8-neighbour earlier in raster order would have won.
+          const bool earlier_neighbour = std::abs(dx) <= 1 && (dy == -1 || (dy == 0 && dx == -1));
+          if (earlier_neighbour) {
+            ASSERT_LT(other, val) << "class " << k << " at " << u << "," << v;
+          }
+        }
+      const Descriptor d = fs.DescriptorAt(u, v);
+      ASSERT_EQ(DescriptorSad(d, c.descriptors[i]), 0u);
+    }
+    total += c.size();
+  }
+  EXPECT_EQ(total, fs.TotalFeatures());
+  EXPECT_GT(total, 200);
+}
+
+TEST(FeaturesTest, NonMaximumSuppressionYieldsStrictExtremaPerClass) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  synthetic::SyntheticRoom room;
+  std::vector<uint8_t> left, right;
+  room.Render(rig, geometry::SE3(), &left, &right);
+  FeatureOptions options;
+  FeatureExtractor extractor(options);
+  FeatureSet fs;
+  extractor.Extract({left.data(), rig.width, rig.height, rig.width}, &fs);
+  CheckFeatures(left, rig.width, rig.height, options, fs);
+  for (int k = 0; k < kNumFeatureClasses; ++k) EXPECT_GT(fs.features(k).size(), 50) << k;
+
+  // Half resolution: fewer features, still inside the margins and in every class.
+  options.half_resolution = true;
+  FeatureExtractor half(options);
+  FeatureSet hs;
+  half.Extract({left.data(), rig.width, rig.height, rig.width}, &hs);
+  EXPECT_GT(hs.TotalFeatures(), 100);
+  EXPECT_LT(hs.TotalFeatures(), fs.TotalFeatures());
+  for (int k = 0; k < kNumFeatureClasses; ++k) {
+    for (int i = 0; i < hs.features(k).size(); ++i) {
+      EXPECT_EQ(hs.features(k).u[i] % 2, 0);
+      EXPECT_GE(hs.features(k).u[i], FeatureSet::kDescriptorMargin);
+      EXPECT_LT(hs.features(k).u[i], rig.width - FeatureSet::kDescriptorMargin);
+    }
+  }
+}
+
+TEST(FeaturesTest, UniformAndTinyImagesHaveNoFeatures) {
+  FeatureExtractor extractor({});
+  FeatureSet fs;
+  std::vector<uint8_t> black(752 * 480, 0);
+  extractor.Extract({black.data(), 752, 480, 752}, &fs);
+  EXPECT_EQ(fs.TotalFeatures(), 0);
+  std::vector<uint8_t> tiny = RandomImage(10, 10, 2);
+  extractor.Extract({tiny.data(), 10, 10, 10}, &fs);
+  EXPECT_EQ(fs.TotalFeatures(), 0);
+  extractor.Extract({nullptr, 0, 0, 0}, &fs);
+  EXPECT_EQ(fs.TotalFeatures(), 0);
+}
+
+TEST(FeaturesTest, OptionsValidationNamesTheField) {
+  FeatureOptions o;
+  std::string why;
+  EXPECT_TRUE(o.IsValid(&why));
+  o.nms_radius = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("nms_radius"), std::string::npos);
+  o = {};
+  o.grid_cell_px = 1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("grid_cell_px"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mav::localization

@@ -1,0 +1,211 @@
+#include "mav/localization/stereo_motion.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "synthetic_stereo.h"
+
+namespace mav::localization {
+namespace {
+
+using geometry::SE3;
+using geometry::Vector6d;
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+// Random points in front of the previous camera (depth 1.5 .. 8 m) that stay visible in both
+// current images after `T_cur_prev`; exact observations.
+void MakeCorrespondences(const camera::RectifiedStereo& rig, const SE3& T_cur_prev, int n,
+                         uint64_t seed, std::vector<Eigen::Vector3d>* points,
+                         std::vector<StereoObservation>* obs) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(20, rig.width - 20), v(20, rig.height - 20), z(1.5, 8.0);
+  points->clear();
+  obs->clear();
+  while (static_cast<int>(points->size()) < n) {
+    const Eigen::Vector3d p = rig.Unproject({u(rng), v(rng)}, z(rng));
+    const Eigen::Vector3d q = T_cur_prev * p;
+    const auto l = rig.ProjectLeft(q), r = rig.ProjectRight(q);
+    if (!l || !r) continue;
+    if (l->x() < 0 || l->x() >= rig.width || l->y() < 0 || l->y() >= rig.height) continue;
+    if (r->x() < 0 || r->x() >= rig.width) continue;
+    points->push_back(p);
+    obs->emplace_back(l->x(), l->y(), r->x(), r->y());
+  }
+}
+
+double RotationErrorDeg(const SE3& a, const SE3& b) {
+  return geometry::AngleBetween(a.Rotation(), b.Rotation()) * kRadToDeg;
+}
+
+TEST(StereoMotionTest, JacobianMatchesNumericDerivative) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  Vector6d xi;
+  xi << 0.05, -0.02, 0.1, 0.02, -0.03, 0.01;
+  const SE3 T = SE3::Exp(xi);
+  const StereoObservation obs(300, 200, 280, 201);
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(0.3, -0.2, 2.0), Eigen::Vector3d(-1, 0.5, 5.0),
+                                   Eigen::Vector3d(0.01, 0.02, 0.8)}) {
+    Eigen::Vector4d r;
+    Matrix46d J;
+    ASSERT_TRUE(StereoReprojectionResidual(rig, T, p, obs, &r, &J));
+    Matrix46d numeric;
+    const double h = 1e-6;
+    for (int k = 0; k < 6; ++k) {
+      Vector6d d = Vector6d::Zero();
+      d(k) = h;
+      Eigen::Vector4d rp, rm;
+      ASSERT_TRUE(StereoReprojectionResidual(rig, SE3::Exp(d) * T, p, obs, &rp, nullptr));
+      ASSERT_TRUE(StereoReprojectionResidual(rig, SE3::Exp(-d) * T, p, obs, &rm, nullptr));
+      numeric.col(k) = (rp - rm) / (2 * h);
+    }
+    EXPECT_LT((J - numeric).norm(), 1e-5 * (1.0 + J.norm())) << "analytic\n"
+                                                             << J << "\nnumeric\n"
+                                                             << numeric;
+  }
+}
+
+TEST(StereoMotionTest, PointBehindCameraHasNoResidual) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  Eigen::Vector4d r(1, 2, 3, 4);
+  EXPECT_FALSE(
+      StereoReprojectionResidual(rig, SE3(), {0, 0, -1}, StereoObservation::Zero(), &r, nullptr));
+  EXPECT_EQ(r, Eigen::Vector4d(1, 2, 3, 4));
+}
+
+struct MotionCase {
+  const char* name;
+  Vector6d xi;  // T_cur_prev = Exp(xi)
+};
+
+class ExactMotionTest : public ::testing::TestWithParam<MotionCase> {};
+
+TEST_P(ExactMotionTest, RecoversMotionFromNoiseFreeProjections) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  const SE3 T_true = SE3::Exp(GetParam().xi);
+  std::vector<Eigen::Vector3d> points;
+  std::vector<StereoObservation> obs;
+  MakeCorrespondences(rig, T_true, 150, 3, &points, &obs);
+  const StereoMotionEstimate est = EstimateStereoMotion(rig, points, obs, {});
+  ASSERT_TRUE(est.ok) << est.failure;
+  EXPECT_EQ(est.inliers.size(), points.size());
+  EXPECT_LT(RotationErrorDeg(est.T_cur_prev, T_true), 0.1);
+  const double t_norm = T_true.Translation().norm();
+  const double t_err = (est.T_cur_prev.Translation() - T_true.Translation()).norm();
+  if (t_norm > 0) {
+    EXPECT_LT(t_err / t_norm, 0.01) << "translation error " << t_err << " m of " << t_norm;
+  } else {
+    EXPECT_LT(t_err, 1e-4);
+  }
+  EXPECT_LT(est.mean_error_px, 1e-6);
+}
+
+Vector6d Xi(double tx, double ty, double tz, double rx, double ry, double rz) {
+  Vector6d xi;
+  xi << tx, ty, tz, rx, ry, rz;
+  return xi;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Motions, ExactMotionTest,
+    ::testing::Values(MotionCase{"PureTranslation", Xi(0.08, -0.03, 0.02, 0, 0, 0)},
+                      MotionCase{"PureRotation", Xi(0, 0, 0, 0.01, -0.035, 0.02)},
+                      MotionCase{"ForwardMotion", Xi(0, 0, -0.15, 0, 0, 0)},
+                      MotionCase{"GeneralMotion", Xi(0.05, 0.02, -0.1, 0.02, 0.03, -0.01)}),
+    [](const ::testing::TestParamInfo<MotionCase>& info) { return info.param.name; });
+
+// RANSAC statistics over many seeds: 30 % gross outliers, 0.3 px noise on inliers.
+TEST(StereoMotionTest, RansacWithThirtyPercentOutliersOverManySeeds) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  const int kSeeds = 100, kPoints = 150;
+  int successes = 0;
+  double sum_rot_deg = 0, sum_trans_rel = 0;
+  for (int seed = 0; seed < kSeeds; ++seed) {
+    std::mt19937_64 rng(1000 + seed);
+    std::normal_distribution<double> noise(0, 0.3), motion(0, 1);
+    Vector6d xi;
+    xi << 0.05 * motion(rng), 0.05 * motion(rng), 0.1 * motion(rng), 0.02 * motion(rng),
+        0.02 * motion(rng), 0.02 * motion(rng);
+    const SE3 T_true = SE3::Exp(xi);
+    std::vector<Eigen::Vector3d> points;
+    std::vector<StereoObservation> obs;
+    MakeCorrespondences(rig, T_true, kPoints, 2000 + seed, &points, &obs);
+    std::uniform_real_distribution<double> u(0, rig.width), v(0, rig.height), d(1, 60);
+    for (int i = 0; i < kPoints; ++i) {
+      if (i % 10 < 3) {  // outlier: a random observation with positive disparity
+        const double ul = u(rng), vl = v(rng);
+        obs[i] = StereoObservation(ul, vl, ul - d(rng), vl);
+      } else {
+        for (int k = 0; k < 4; ++k) obs[i](k) += noise(rng);
+      }
+    }
+    StereoMotionOptions options;
+    options.seed = seed;
+    const StereoMotionEstimate est = EstimateStereoMotion(rig, points, obs, options);
+    if (!est.ok) continue;
+    const double rot = RotationErrorDeg(est.T_cur_prev, T_true);
+    const double trans =
+        (est.T_cur_prev.Translation() - T_true.Translation()).norm() / T_true.Translation().norm();
+    sum_rot_deg += rot;
+    sum_trans_rel += trans;
+    int outliers_accepted = 0;
+    for (int i : est.inliers) outliers_accepted += (i % 10 < 3);
+    if (rot < 0.1 && trans < 0.05 && outliers_accepted <= 2) ++successes;
+  }
+  EXPECT_GE(successes, 99) << "of " << kSeeds;
+  EXPECT_LT(sum_rot_deg / kSeeds, 0.03);
+  EXPECT_LT(sum_trans_rel / kSeeds, 0.02);
+}
+
+TEST(StereoMotionTest, DeterministicForASeed) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  const SE3 T_true = SE3::Exp(Xi(0.05, 0, 0.1, 0, 0.02, 0));
+  std::vector<Eigen::Vector3d> points;
+  std::vector<StereoObservation> obs;
+  MakeCorrespondences(rig, T_true, 80, 5, &points, &obs);
+  for (int i = 0; i < 80; i += 3) obs[i] += StereoObservation(40, -25, 33, -25);
+  const StereoMotionEstimate a = EstimateStereoMotion(rig, points, obs, {});
+  const StereoMotionEstimate b = EstimateStereoMotion(rig, points, obs, {});
+  ASSERT_TRUE(a.ok && b.ok);
+  EXPECT_EQ(a.inliers, b.inliers);
+  EXPECT_EQ(a.hypotheses, b.hypotheses);
+  EXPECT_TRUE(a.T_cur_prev.IsApprox(b.T_cur_prev, 0));
+}
+
+TEST(StereoMotionTest, FailsWithAReasonOnTooFewOrInconsistentCorrespondences) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  std::vector<Eigen::Vector3d> points;
+  std::vector<StereoObservation> obs;
+  MakeCorrespondences(rig, SE3(), 5, 1, &points, &obs);
+  StereoMotionEstimate est = EstimateStereoMotion(rig, points, obs, {});
+  EXPECT_FALSE(est.ok);
+  EXPECT_NE(est.failure.find("too few correspondences"), std::string::npos) << est.failure;
+
+  // Pure noise: no motion explains more than a handful of points.
+  MakeCorrespondences(rig, SE3(), 60, 2, &points, &obs);
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(0, 752), v(0, 480);
+  for (auto& o : obs) o = StereoObservation(u(rng), v(rng), u(rng), v(rng));
+  est = EstimateStereoMotion(rig, points, obs, {});
+  EXPECT_FALSE(est.ok);
+  EXPECT_NE(est.failure.find("RANSAC failed"), std::string::npos) << est.failure;
+  EXPECT_TRUE(est.T_cur_prev.Translation().allFinite());
+}
+
+TEST(StereoMotionTest, OptionsValidationNamesTheField) {
+  StereoMotionOptions o;
+  std::string why;
+  EXPECT_TRUE(o.IsValid(&why));
+  o.inlier_threshold_px = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("inlier_threshold_px"), std::string::npos);
+  o = {};
+  o.confidence = 1.0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("confidence"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mav::localization

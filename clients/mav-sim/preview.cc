@@ -13,8 +13,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "commands.h"
-#include "mav/common/flags.h"
 #include "mav/common/file.h"
+#include "mav/common/flags.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
 #include "mav/dataset/stereo_pair.h"
@@ -55,13 +55,16 @@ struct TopView {
 int RunPreview(const std::vector<std::string>& args) {
   int64_t frame = 0;
   std::string out;
+  double slice_z_flag = 0.0;
   FlagParser parser(
-      "mav-sim preview DIR --frame K --out x.png\n\n"
+      "mav-sim preview DIR --frame K --out x.png [--slice-z Z]\n\n"
       "Draws frame K's left and right images side by side above a top view of the ground-truth\n"
       "occupancy (DIR/ground_truth/occupancy.mavocc) sliced at the camera height: occupied dark,\n"
       "free light, unknown grey; the trajectory in blue, the camera in red.");
   parser.AddInt64("frame", &frame, "frame index");
   parser.AddString("out", &out, "output PNG (required)");
+  parser.AddDouble("slice-z", &slice_z_flag,
+                   "height of the occupancy slice in metres (default: the camera's)");
   std::vector<std::string> positional;
   bool help = false;
   const Status parsed = parser.Parse(args, &positional, &help);
@@ -139,7 +142,7 @@ int RunPreview(const std::vector<std::string>& args) {
   } else {
     T_world_cam0 = geometry::SE3(Eigen::Quaterniond::Identity(), extent.center());
   }
-  const double slice_z = T_world_cam0.Translation().z();
+  const double slice_z = parser.WasSet("slice-z") ? slice_z_flag : T_world_cam0.Translation().z();
 
   cv::Mat slice(height, width, CV_8UC3, cv::Scalar(128, 128, 128));
   if (grid) {

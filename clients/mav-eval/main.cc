@@ -1,0 +1,34 @@
+// mav-eval: reproduces the reference paper's tables with our own code and data.
+//   mav-eval localization --data DIR [--method ...] [--out DIR] [--json FILE]
+
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: mav-eval <command> [flags]\n"
+    "commands:\n"
+    "  localization   stereo VO accuracy and runtime (the paper's Tables 1 and 2)\n"
+    "run 'mav-eval <command> --help' for the flags of a command\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << kUsage;
+    return 2;
+  }
+  const std::string command = argv[1];
+  const std::vector<std::string> args(argv + 2, argv + argc);
+  if (command == "localization") return mav::eval_cli::RunLocalization(args);
+  if (command == "--help" || command == "-h" || command == "help") {
+    std::cout << kUsage;
+    return 0;
+  }
+  std::cerr << "mav-eval: unknown command '" << command << "'\n" << kUsage;
+  return 2;
+}

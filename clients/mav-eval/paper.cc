@@ -1,0 +1,31 @@
+#include "paper.h"
+
+namespace mav::eval_cli {
+
+std::optional<int> PaperDataSetIndex(const std::string& preset) {
+  if (preset == "room-easy") return 0;
+  if (preset == "room-medium") return 1;
+  if (preset == "room-hard") return 2;
+  return std::nullopt;
+}
+
+const std::array<PaperLocalizationRow, 3>& PaperLocalization() {
+  // Table 1 (runtime, error per data set) and Table 2 (DS3 error per segment length), plus the
+  // DS3 end-point errors quoted in the text.
+  static const std::array<PaperLocalizationRow, 3> kRows = {{
+      {"sparse-pixel",
+       {26, 26, 23},
+       {1.8, 3.0, 6.2},
+       {7.7, 6.6, 6.3, 6.9, 7.1, 7.0, 4.6, 3.6},
+       2.41},
+      {"sparse-subpixel",
+       {34, 33, 30},
+       {1.6, 1.4, 3.4},
+       {4.5, 3.6, 3.4, 3.6, 3.6, 3.5, 2.8, 2.1},
+       1.15},
+      {"dense", {49, 52, 52}, {1.5, 2.2, 5.9}, {11.8, 7.6, 5.9, 5.6, 5.7, 5.6, 2.9, 2.4}, 2.08},
+  }};
+  return kRows;
+}
+
+}  // namespace mav::eval_cli

@@ -1,0 +1,25 @@
+#pragma once
+// The reference paper's published figures (Holzmann et al. 2015; ../shared/PAPER_RESULTS.md),
+// printed beside ours.
+
+#include <array>
+#include <optional>
+#include <string>
+
+namespace mav::eval_cli {
+
+// Data sets 1..3 of the paper correspond to our room-easy, room-medium, room-hard presets.
+// Returns 0-based index, or nullopt for other data.
+std::optional<int> PaperDataSetIndex(const std::string& preset);
+
+struct PaperLocalizationRow {
+  const char* method;  // our method name
+  std::array<double, 3> runtime_ms;
+  std::array<double, 3> error_pct;
+  std::array<double, 8> ds3_error_per_length_pct;  // Table 2: 2 5 10 15 20 25 60 75 m
+  double ds3_end_point_error_m;
+};
+
+const std::array<PaperLocalizationRow, 3>& PaperLocalization();
+
+}  // namespace mav::eval_cli

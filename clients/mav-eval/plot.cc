@@ -1,0 +1,66 @@
+#include "plot.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace mav::eval_cli {
+
+Status WriteTopViewPlot(const std::string& path, const std::string& title,
+                        const std::vector<PlotSeries>& series) {
+  Eigen::Vector2d lo(1e18, 1e18), hi(-1e18, -1e18);
+  for (const PlotSeries& s : series) {
+    for (const Eigen::Vector3d& p : s.positions) {
+      lo = lo.cwiseMin(p.head<2>());
+      hi = hi.cwiseMax(p.head<2>());
+    }
+  }
+  if (lo.x() > hi.x()) return Status::InvalidArgument("plot: no positions to draw");
+  const Eigen::Vector2d centre = 0.5 * (lo + hi);
+  const double span = std::max({hi.x() - lo.x(), hi.y() - lo.y(), 1.0}) * 1.1;
+  const int size = 900, margin = 60;
+  const double scale = (size - 2 * margin) / span;
+  const auto to_px = [&](const Eigen::Vector2d& p) {
+    return cv::Point(static_cast<int>(std::lround(size / 2 + (p.x() - centre.x()) * scale)),
+                     static_cast<int>(std::lround(size / 2 - (p.y() - centre.y()) * scale)));
+  };
+
+  cv::Mat canvas(size, size, CV_8UC3, cv::Scalar(255, 255, 255));
+  // Grid every 1 m (every 5 m for large spans), labelled on the axes.
+  const double grid = span > 30 ? 5.0 : 1.0;
+  for (double x = std::floor((centre.x() - span / 2) / grid) * grid; x <= centre.x() + span / 2;
+       x += grid) {
+    const cv::Point a = to_px({x, centre.y() - span / 2}), b = to_px({x, centre.y() + span / 2});
+    cv::line(canvas, a, b, cv::Scalar(225, 225, 225), 1);
+    cv::putText(canvas, cv::format("%g", x), cv::Point(a.x - 8, size - margin / 2),
+                cv::FONT_HERSHEY_SIMPLEX, 0.4, cv::Scalar(90, 90, 90), 1, cv::LINE_AA);
+  }
+  for (double y = std::floor((centre.y() - span / 2) / grid) * grid; y <= centre.y() + span / 2;
+       y += grid) {
+    const cv::Point a = to_px({centre.x() - span / 2, y}), b = to_px({centre.x() + span / 2, y});
+    cv::line(canvas, a, b, cv::Scalar(225, 225, 225), 1);
+    cv::putText(canvas, cv::format("%g", y), cv::Point(8, a.y + 4), cv::FONT_HERSHEY_SIMPLEX, 0.4,
+                cv::Scalar(90, 90, 90), 1, cv::LINE_AA);
+  }
+  for (size_t k = 0; k < series.size(); ++k) {
+    const PlotSeries& s = series[k];
+    std::vector<cv::Point> pts;
+    pts.reserve(s.positions.size());
+    for (const Eigen::Vector3d& p : s.positions) pts.push_back(to_px(p.head<2>()));
+    const cv::Scalar colour(s.b, s.g, s.r);
+    if (pts.size() > 1) cv::polylines(canvas, pts, false, colour, 2, cv::LINE_AA);
+    if (!pts.empty()) cv::circle(canvas, pts.front(), 5, colour, cv::FILLED, cv::LINE_AA);
+    const int y = margin + 20 * static_cast<int>(k);
+    cv::line(canvas, cv::Point(size - 230, y), cv::Point(size - 200, y), colour, 3);
+    cv::putText(canvas, s.label, cv::Point(size - 190, y + 5), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  cv::putText(canvas, title + "  (x-y, metres)", cv::Point(margin, 30), cv::FONT_HERSHEY_SIMPLEX,
+              0.6, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  if (!cv::imwrite(path, canvas)) return Status::IoError(path + ": cannot write PNG");
+  return Status::Ok();
+}
+
+}  // namespace mav::eval_cli

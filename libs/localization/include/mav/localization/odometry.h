@@ -1,0 +1,59 @@
+#pragma once
+// One interface over the stereo odometry methods of the paper (Holzmann et al. 2015, Table 1):
+// sparse feature-based VO in pixel and sub-pixel mode (sparse_vo.h) and dense direct VO
+// (dense_vo.h). The evaluation tool and the localization service hold a StereoOdometry and
+// need not know which method runs.
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "mav/camera/stereo.h"
+#include "mav/common/status.h"
+#include "mav/localization/types.h"
+
+namespace cv {
+class Mat;
+}
+
+namespace mav::localization {
+
+enum class Method { kSparsePixel, kSparseSubpixel, kDense };
+
+// "sparse-pixel", "sparse-subpixel", "dense": the names used on command lines and in JSON.
+const char* MethodName(Method method);
+std::optional<Method> ParseMethod(std::string_view name);
+const std::vector<Method>& AllMethods();
+
+// The method-independent part of a frame's result.
+struct OdometryFrame {
+  int64_t t_ns = 0;
+  TrackingState state = TrackingState::kOk;
+  std::string lost_reason;
+  // Pose of the rectified left camera; the world frame is the first frame's camera.
+  geometry::SE3 T_world_cam;
+  // Sparse: RANSAC inliers. Dense: pixels used in the alignment.
+  int support = 0;
+  // Sparse: mean reprojection error (px). Dense: robust RMS photometric error (grey levels).
+  double residual = 0;
+  // The method's own timing of the frame (ms).
+  double runtime_ms = 0;
+};
+
+class StereoOdometry {
+ public:
+  // InvalidArgument naming the field for an invalid rig.
+  static Result<std::unique_ptr<StereoOdometry>> Create(Method method,
+                                                        const camera::RectifiedStereo& rig);
+  virtual ~StereoOdometry() = default;
+
+  // Rectified CV_8UC1 pair of the rig's size; bad input is InvalidArgument naming "left"/"right".
+  virtual Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left,
+                                        const cv::Mat& right) = 0;
+  virtual void Reset() = 0;
+  virtual Method method() const = 0;
+};
+
+}  // namespace mav::localization

@@ -41,6 +41,7 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
        y += grid) {
     const cv::Point a = to_px({centre.x() - span / 2, y}), b = to_px({centre.x() + span / 2, y});
     cv::line(canvas, a, b, cv::Scalar(225, 225, 225), 1);
+    if (a.y < margin / 2 || a.y > size - margin) continue;  // keep labels clear of the x axis
     cv::putText(canvas, cv::format("%g", y), cv::Point(8, a.y + 4), cv::FONT_HERSHEY_SIMPLEX, 0.4,
                 cv::Scalar(90, 90, 90), 1, cv::LINE_AA);
   }

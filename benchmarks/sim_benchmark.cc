@@ -1,12 +1,16 @@
 // Simulator hot paths: rendering one stereo pair of each preset (single thread; frames are
 // spread over the whole preset, so adaptive motion-blur sub-frames count as they occur) and the
-// exact ground-truth occupancy of a room. Figures: docs/benchmarks.md ("Simulator").
+// exact ground-truth occupancy of a room; per-stage costs of one room-hard image (ray casting +
+// shading, reprojection blur, image formation). Figures: docs/benchmarks.md ("Simulator").
 //
-//   build-sim/bin/benchmarks/sim_benchmark --benchmark_min_time=3
+//   build/bin/benchmarks/sim_benchmark --benchmark_repetitions=3
+//       --benchmark_report_aggregates_only=true   (one command line)
 
+#include <algorithm>
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
@@ -14,6 +18,7 @@
 #include "mav/common/check.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/presets.h"
+#include "mav/sim/renderer.h"
 #include "mav/sim/scenario.h"
 #include "mav/sim/world.h"
 
@@ -50,6 +55,88 @@ BENCHMARK_CAPTURE(BM_RenderStereo, room-easy, std::string("room-easy"))->Unit(be
 BENCHMARK_CAPTURE(BM_RenderStereo, room-medium, std::string("room-medium"))->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_RenderStereo, room-hard, std::string("room-hard"))->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_RenderStereo, plant, std::string("plant"))->Unit(benchmark::kMillisecond);
+// clang-format on
+
+// Per-stage costs of one room-hard image (left camera): ray casting + shading, reprojection blur,
+// image formation. Same frames as BM_RenderStereo.
+struct Parts {
+  std::shared_ptr<mav::sim::World> world;
+  std::unique_ptr<mav::sim::CameraRenderer> renderer;
+  std::vector<mav::geometry::SE3> mid, open, close;
+  mav::sim::ImageEffects effects;
+};
+
+const Parts& GetParts(const std::string& preset) {
+  static std::map<std::string, std::unique_ptr<Parts>> cache;
+  auto it = cache.find(preset);
+  if (it != cache.end()) return *it->second;
+  const mav::sim::Scenario& scenario = GetScenario(preset);
+  auto parts = std::make_unique<Parts>();
+  mav::Result<mav::sim::Preset> p = mav::sim::MakePreset(preset);
+  MAV_CHECK(p.ok());
+  parts->world = p->world;
+  parts->effects = p->effects;
+  parts->world->BuildTextures(1);
+  const auto& calib = scenario.calibration();
+  parts->renderer = std::make_unique<mav::sim::CameraRenderer>(parts->world, calib.cam0);
+  const int64_t dt = static_cast<int64_t>(p->effects.shutter_s * 0.5e9);
+  for (int64_t f = 0; f < scenario.num_frames(); f += 37) {
+    const int64_t t = scenario.FrameTimeNs(f);
+    auto pose = [&](int64_t tn) {
+      tn = std::clamp(tn, scenario.FrameTimeNs(0), scenario.FrameTimeNs(scenario.num_frames() - 1));
+      return scenario.StateAt(tn).T_world_body * calib.T_body_cam0;
+    };
+    parts->mid.push_back(pose(t));
+    parts->open.push_back(pose(t - dt));
+    parts->close.push_back(pose(t + dt));
+  }
+  return *cache.emplace(preset, std::move(parts)).first->second;
+}
+
+void BM_Radiance(benchmark::State& state, const std::string& preset) {
+  const Parts& parts = GetParts(preset);
+  std::vector<float> radiance, range;
+  size_t k = 0;
+  for (auto _ : state) {
+    parts.renderer->RenderRadiance(parts.mid[k], &radiance, &range);
+    benchmark::DoNotOptimize(radiance.data());
+    k = (k + 1) % parts.mid.size();
+  }
+}
+
+void BM_Blur(benchmark::State& state, const std::string& preset) {
+  const Parts& parts = GetParts(preset);
+  std::vector<std::vector<float>> radiance(parts.mid.size()), range(parts.mid.size());
+  for (size_t k = 0; k < parts.mid.size(); ++k)
+    parts.renderer->RenderRadiance(parts.mid[k], &radiance[k], &range[k]);
+  std::vector<float> blurred;
+  size_t k = parts.mid.size() / 2;  // the first iteration (profilers) in mid-flight
+  for (auto _ : state) {
+    parts.renderer->BlurByReprojection(radiance[k], range[k], parts.mid[k], parts.open[k],
+                                       parts.close[k], parts.effects.reprojection_max_samples,
+                                       &blurred);
+    benchmark::DoNotOptimize(blurred.data());
+    k = (k + 1) % parts.mid.size();
+  }
+}
+
+void BM_FormImage(benchmark::State& state, const std::string& preset) {
+  const Parts& parts = GetParts(preset);
+  std::vector<float> radiance;
+  parts.renderer->RenderRadiance(parts.mid[0], &radiance);
+  cv::Mat image;
+  uint64_t key = 0;
+  for (auto _ : state) {
+    mav::sim::FormImage(radiance, parts.renderer->width(), parts.renderer->height(), 1.1,
+                        parts.effects.noise_sigma, ++key, &image);
+    benchmark::DoNotOptimize(image.data);
+  }
+}
+// clang-format off
+BENCHMARK_CAPTURE(BM_Radiance, room-hard, std::string("room-hard"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Blur, room-hard, std::string("room-hard"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FormImage, room-hard, std::string("room-hard"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, plant, std::string("plant"))->Unit(benchmark::kMillisecond);
 // clang-format on
 
 void BM_ComputeOccupancy(benchmark::State& state) {

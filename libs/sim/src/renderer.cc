@@ -2,7 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <type_traits>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include <opencv2/core.hpp>
 
@@ -16,6 +22,212 @@ namespace {
 constexpr int kTile = 16;       // pixels per tile side
 constexpr int kSuper = 4;       // tiles per super-tile side (64 x 64 pixels)
 constexpr float kTMin = 1e-3f;  // metres
+
+// ---- 4-wide float SIMD (GCC/Clang vector extensions: SSE2 on x86-64, the baseline; any other
+// target gets whatever the compiler makes of them) ----
+typedef float F4 __attribute__((vector_size(16)));
+typedef int32_t I4 __attribute__((vector_size(16)));
+
+inline F4 Splat(float x) { return F4{x, x, x, x}; }
+inline F4 Load4(const float* p) {
+  F4 v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+inline void Store4(float* p, F4 v) { std::memcpy(p, &v, sizeof(v)); }
+// Lane-wise select with a comparison mask (all bits set = a).
+inline F4 Select(I4 mask, F4 a, F4 b) {
+  // Vector casts reinterpret the bits (no conversion, no memory round trip).
+  return (F4)(((I4)a & mask) | ((I4)b & ~mask));
+}
+// min/max returning the second operand when either is NaN (minps/maxps).
+#if defined(__SSE2__)
+inline F4 Min4(F4 a, F4 b) { return (F4)_mm_min_ps((__m128)a, (__m128)b); }
+inline F4 Max4(F4 a, F4 b) { return (F4)_mm_max_ps((__m128)a, (__m128)b); }
+#else
+inline F4 Min4(F4 a, F4 b) { return Select(a < b, a, b); }
+inline F4 Max4(F4 a, F4 b) { return Select(a > b, a, b); }
+#endif
+inline F4 Abs4(F4 a) { return (F4)((I4)a & I4{0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff}); }
+inline F4 Sqrt4(F4 a) {
+#if defined(__SSE2__)
+  return reinterpret_cast<F4>(_mm_sqrt_ps(reinterpret_cast<__m128>(a)));
+#else
+  return F4{std::sqrt(a[0]), std::sqrt(a[1]), std::sqrt(a[2]), std::sqrt(a[3])};
+#endif
+}
+// Truncation toward zero (cvttps2dq); only used on values well inside the int range.
+inline I4 TruncToInt4(F4 a) { return __builtin_convertvector(a, I4); }
+inline F4 ToFloat4(I4 a) { return __builtin_convertvector(a, F4); }
+inline bool Any4(I4 m) {
+#if defined(__SSE2__)
+  return _mm_movemask_ps(reinterpret_cast<__m128>(m)) != 0;
+#else
+  return (m[0] | m[1] | m[2] | m[3]) != 0;
+#endif
+}
+inline bool All4(I4 m) {
+#if defined(__SSE2__)
+  return _mm_movemask_ps(reinterpret_cast<__m128>(m)) == 0xf;
+#else
+  return (m[0] & m[1] & m[2] & m[3]) != 0;
+#endif
+}
+inline float HMax4(F4 a) { return std::max(std::max(a[0], a[1]), std::max(a[2], a[3])); }
+
+// log2 stand-in of Texture::FastLog2 (exponent + linear mantissa), 4 values >= 1.
+inline F4 FastLog2x4(F4 x) {
+  const I4 bits = (I4)x;
+  const I4 exponent = ((bits >> 23) & 0xff) - 127;
+  const F4 mantissa = (F4)((bits & 0x007fffff) | 0x3f800000);
+  return ToFloat4(exponent) + (mantissa - Splat(1.0f));
+}
+
+// Texture sampling of 4 pixels in two steps, so that the texel fetches of many pixels can be
+// in flight at once (the fetches miss the caches: a frame touches megabytes of texels):
+// TexAddress4 computes the quad addresses and weights (and prefetches), TexFetch4 blends.
+struct TexLookup4 {
+  const uint16_t* quad[2][4];  // [level l0, l0 + 1][lane]
+  F4 ax[2], ay[2];             // bilinear weights per level
+  F4 f;                        // blend weight of level l0 + 1
+  bool single;                 // f == 0 in every lane: level l0 + 1 not needed
+};
+
+// Quad address and bilinear weights of level l[j] of texture tex[j] per lane
+// (Texture::SampleLevel). Vectors are assembled from scalars with initialisers (register
+// shuffles), never by writing single lanes in memory (which defeats store forwarding).
+inline void LevelAddress4(const Texture* const tex[4], bool same_texture, I4 l, F4 u, F4 v,
+                          const uint16_t** quad, F4* ax_out, F4* ay_out) {
+  const int l0 = l[0], l1 = l[1], l2 = l[2], l3 = l[3];
+  F4 scale;
+  I4 n;                                                    // stored sizes
+  if (same_texture && l0 == l1 && l0 == l2 && l0 == l3) {  // the common case
+    scale = Splat(tex[0]->level_scale(l0));
+    const int size = tex[0]->level_size(l0);
+    n = I4{size, size, size, size};
+  } else {
+    scale = F4{tex[0]->level_scale(l0), tex[1]->level_scale(l1), tex[2]->level_scale(l2),
+               tex[3]->level_scale(l3)};
+    n = I4{tex[0]->level_size(l0), tex[1]->level_size(l1), tex[2]->level_size(l2),
+           tex[3]->level_size(l3)};
+  }
+  const I4 mask = n - 1;
+  const F4 x = u * scale - Splat(0.5f), y = v * scale - Splat(0.5f);
+  const I4 tx = TruncToInt4(x), ty = TruncToInt4(y);
+  const I4 ix = tx + (x < ToFloat4(tx)), iy = ty + (y < ToFloat4(ty));  // floor
+  *ax_out = x - ToFloat4(ix);
+  *ay_out = y - ToFloat4(iy);
+  // Texture's quad layout: quad Texture::BlockColumn(x) + Texture::BlockRow(y, size).
+  static_assert(Texture::kBlockW == 4 && Texture::kBlockH == 2);
+  const I4 cx = ix & mask, cy = iy & mask;
+  const I4 index = TruncToInt4(ToFloat4(cy >> 1) * (ToFloat4(n) * Splat(2.0f))) + ((cy & 1) << 2) +
+                   ((cx >> 2) << 3) + (cx & 3);  // exact: < 2^24
+  quad[0] = tex[0]->level_data(l0) + 4 * static_cast<size_t>(index[0]);
+  quad[1] = tex[1]->level_data(l1) + 4 * static_cast<size_t>(index[1]);
+  quad[2] = tex[2]->level_data(l2) + 4 * static_cast<size_t>(index[2]);
+  quad[3] = tex[3]->level_data(l3) + 4 * static_cast<size_t>(index[3]);
+  for (int j = 0; j < 4; ++j) __builtin_prefetch(quad[j]);
+}
+
+// Texture::Sample's level choice for 4 lanes, each with its own texture.
+inline void TexAddress4(const Texture* const tex[4], F4 u, F4 v, F4 footprint_m, TexLookup4* out) {
+  const bool same_texture = tex[0] == tex[1] && tex[0] == tex[2] && tex[0] == tex[3];
+  F4 inv_texel, max_level, top_pair;
+  if (same_texture) {
+    inv_texel = Splat(tex[0]->inv_texel_size_m());
+    max_level = Splat(tex[0]->max_level());
+    top_pair = Splat(static_cast<float>(tex[0]->top_pair()));
+  } else {
+    inv_texel = F4{tex[0]->inv_texel_size_m(), tex[1]->inv_texel_size_m(),
+                   tex[2]->inv_texel_size_m(), tex[3]->inv_texel_size_m()};
+    max_level =
+        F4{tex[0]->max_level(), tex[1]->max_level(), tex[2]->max_level(), tex[3]->max_level()};
+    top_pair = ToFloat4(
+        I4{tex[0]->top_pair(), tex[1]->top_pair(), tex[2]->top_pair(), tex[3]->top_pair()});
+  }
+  const F4 texels = Max4(footprint_m * inv_texel, Splat(1.0f));
+  const F4 level = Min4(FastLog2x4(texels), max_level);
+  const F4 l0f = Min4(ToFloat4(TruncToInt4(level)), top_pair);
+  out->f = level - l0f;
+  const I4 l0 = TruncToInt4(l0f);
+  LevelAddress4(tex, same_texture, l0, u, v, out->quad[0], &out->ax[0], &out->ay[0]);
+  // Magnified texture (footprint below one texel) in all lanes: level 0 alone.
+  out->single = All4(out->f == Splat(0.0f));
+  if (!out->single) {
+    LevelAddress4(tex, same_texture, l0 + 1, u, v, out->quad[1], &out->ax[1], &out->ay[1]);
+  }
+}
+
+// Bilinear blend of the quads of one level, 4 lanes (in texel units).
+inline F4 LevelFetch4(const uint16_t* const q[4], F4 ax, F4 ay) {
+#if defined(__SSE2__)
+  const __m128i zero = _mm_setzero_si128();
+  const __m128i a01 = _mm_unpacklo_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(q[0])),
+                                         _mm_loadl_epi64(reinterpret_cast<const __m128i*>(q[1])));
+  const __m128i a23 = _mm_unpacklo_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(q[2])),
+                                         _mm_loadl_epi64(reinterpret_cast<const __m128i*>(q[3])));
+  // One lane's quad per register, then transposed to one corner per register.
+  __m128 k0 = _mm_cvtepi32_ps(_mm_unpacklo_epi16(a01, zero));
+  __m128 k1 = _mm_cvtepi32_ps(_mm_unpackhi_epi16(a01, zero));
+  __m128 k2 = _mm_cvtepi32_ps(_mm_unpacklo_epi16(a23, zero));
+  __m128 k3 = _mm_cvtepi32_ps(_mm_unpackhi_epi16(a23, zero));
+  _MM_TRANSPOSE4_PS(k0, k1, k2, k3);
+  const F4 tl = reinterpret_cast<F4>(k0), tr = reinterpret_cast<F4>(k1);
+  const F4 bl = reinterpret_cast<F4>(k2), br = reinterpret_cast<F4>(k3);
+#else
+  const F4 tl = ToFloat4(I4{q[0][0], q[1][0], q[2][0], q[3][0]});
+  const F4 tr = ToFloat4(I4{q[0][1], q[1][1], q[2][1], q[3][1]});
+  const F4 bl = ToFloat4(I4{q[0][2], q[1][2], q[2][2], q[3][2]});
+  const F4 br = ToFloat4(I4{q[0][3], q[1][3], q[2][3], q[3][3]});
+#endif
+  const F4 top = tl + ax * (tr - tl);
+  const F4 bottom = bl + ax * (br - bl);
+  return top + ay * (bottom - top);
+}
+
+// Trilinear result (albedo) of a lookup.
+inline F4 TexFetch4(const TexLookup4& t) {
+  const F4 a = LevelFetch4(t.quad[0], t.ax[0], t.ay[0]);
+  if (t.single) return a * Splat(Texture::kAlbedoPerTexel);
+  const F4 b = LevelFetch4(t.quad[1], t.ax[1], t.ay[1]);
+  return (a + t.f * (b - a)) * Splat(Texture::kAlbedoPerTexel);
+}
+
+// Bilinear interpolation of a row-major image at 4 positions given by the offsets `idx` of the
+// top-left texel and the fractions (ax, ay); rows are `stride` floats apart.
+inline F4 Bilinear4(const float* img, const I4& idx, size_t stride, F4 ax, F4 ay) {
+#if defined(__SSE2__)
+  const float* p0 = img + idx[0];
+  const float* p1 = img + idx[1];
+  const float* p2 = img + idx[2];
+  const float* p3 = img + idx[3];
+  const __m128 z = _mm_setzero_ps();
+  const __m128 t01 = _mm_loadh_pi(_mm_loadl_pi(z, reinterpret_cast<const __m64*>(p0)),
+                                  reinterpret_cast<const __m64*>(p1));
+  const __m128 t23 = _mm_loadh_pi(_mm_loadl_pi(z, reinterpret_cast<const __m64*>(p2)),
+                                  reinterpret_cast<const __m64*>(p3));
+  const __m128 b01 = _mm_loadh_pi(_mm_loadl_pi(z, reinterpret_cast<const __m64*>(p0 + stride)),
+                                  reinterpret_cast<const __m64*>(p1 + stride));
+  const __m128 b23 = _mm_loadh_pi(_mm_loadl_pi(z, reinterpret_cast<const __m64*>(p2 + stride)),
+                                  reinterpret_cast<const __m64*>(p3 + stride));
+  const F4 tl = reinterpret_cast<F4>(_mm_shuffle_ps(t01, t23, _MM_SHUFFLE(2, 0, 2, 0)));
+  const F4 tr = reinterpret_cast<F4>(_mm_shuffle_ps(t01, t23, _MM_SHUFFLE(3, 1, 3, 1)));
+  const F4 bl = reinterpret_cast<F4>(_mm_shuffle_ps(b01, b23, _MM_SHUFFLE(2, 0, 2, 0)));
+  const F4 br = reinterpret_cast<F4>(_mm_shuffle_ps(b01, b23, _MM_SHUFFLE(3, 1, 3, 1)));
+#else
+  F4 tl, tr, bl, br;
+  for (int j = 0; j < 4; ++j) {
+    const float* q = img + idx[j];
+    tl[j] = q[0];
+    tr[j] = q[1];
+    bl[j] = q[stride];
+    br[j] = q[stride + 1];
+  }
+#endif
+  const F4 top = tl + ax * (tr - tl);
+  const F4 bottom = bl + ax * (br - bl);
+  return top + ay * (bottom - top);
+}
 
 struct Cone {
   float ax = 0, ay = 0, az = 1;
@@ -35,21 +247,51 @@ struct PrimFrame {
   float o[3];      // camera centre in the primitive's local frame
   float m[9];      // R_local_cam (row-major): d_local = m * d_cam
   float h[3];      // half sizes
+  float inv_h[3];  // 1 / max(h, 1e-9)
   float light[3];  // direction to light in the local frame
+  float uv_offset[2];
+  float emission;
+  const Texture* texture;
   PrimitiveType type;
-  bool visible;
 };
 
-bool ConeHitsSphere(const Cone& cone, float cx, float cy, float cz, float r) {
+// Primitive candidates of one tile, nearest first: `near` bounds the hit distance of every tile
+// ray on the primitive from below (the nearest point of its culling spheres that meet the tile).
+struct Candidate {
+  float near;
+  int primitive;
+};
+
+// A culling sphere as seen from the camera (per frame): direction of its centre, the sine and
+// cosine of its angular radius, the distance to its nearest point.
+struct SphereView {
+  float ux, uy, uz;
+  float sin_b, cos_b;
+  float near;
+  bool contains_camera;
+};
+
+SphereView ViewSphere(float cx, float cy, float cz, float r) {
+  SphereView s{};
   const float d2 = cx * cx + cy * cy + cz * cz;
-  if (d2 <= r * r) return true;
+  s.contains_camera = d2 <= r * r;
+  if (s.contains_camera) return s;
   const float d = std::sqrt(d2);
-  const float sin_b = r / d;
-  const float cos_b = std::sqrt(std::max(0.0f, 1.0f - sin_b * sin_b));
-  const float cos_ac = (cone.ax * cx + cone.ay * cy + cone.az * cz) / d;
+  s.ux = cx / d;
+  s.uy = cy / d;
+  s.uz = cz / d;
+  s.sin_b = r / d;
+  s.cos_b = std::sqrt(std::max(0.0f, 1.0f - s.sin_b * s.sin_b));
+  s.near = d - r;
+  return s;
+}
+
+bool ConeHitsSphere(const Cone& cone, const SphereView& s) {
+  if (s.contains_camera) return true;
+  const float cos_ac = cone.ax * s.ux + cone.ay * s.uy + cone.az * s.uz;
   // angle(axis, c) <= half + beta  <=>  cos_ac >= cos(half + beta) (both angles < pi here).
-  const float cos_sum = cone.cos_half * cos_b - cone.sin_half * sin_b;
-  if (cone.cos_half < 0 && cos_b < 0) return true;
+  const float cos_sum = cone.cos_half * s.cos_b - cone.sin_half * s.sin_b;
+  if (cone.cos_half < 0 && s.cos_b < 0) return true;
   return cos_ac >= cos_sum;
 }
 
@@ -110,6 +352,10 @@ struct CameraRenderer::Impl {
   int tiles_x = 0, tiles_y = 0, supers_x = 0, supers_y = 0;
   // Ray LUT (camera frame, unit length; zero for pixels without a valid ray), SoA.
   std::vector<float> rx, ry, rz;
+  // The same in tile order (kTile^2 rays per tile, row-major inside the tile; zero rays pad
+  // partial tiles), and the initial nearest-hit distance per tile pixel: +inf, or 0 for pixels
+  // without a ray and padding (never hit).
+  std::vector<float> tile_rx, tile_ry, tile_rz, tile_t0;
   std::vector<float> pixel_angle;  // angular size of each pixel (radians)
   std::vector<Cone> tile_cones, super_cones;
   std::vector<Proxy> proxies;
@@ -117,31 +363,28 @@ struct CameraRenderer::Impl {
 
   void Render(const geometry::SE3& T_world_cam, float* radiance, float* range) const;
 
-  // Intersects the rays of one tile with one primitive (kernel: local direction -> t) and keeps
-  // the nearest hit per pixel. One primitive type per call keeps the pixel loop branch-light.
+  // Intersects the rays of one tile (tile-ordered LUT, kTile^2 rays) with one primitive (kernel:
+  // 4 local directions -> 4 hit distances) and keeps the nearest hit per pixel. Returns the
+  // largest nearest-hit distance over the tile afterwards.
   template <typename Kernel>
-  void IntersectTile(const PrimFrame& f, int prim, int u0, int u1, int v0, int v1, float* t_best,
-                     int* id_best, Kernel kernel) const {
+  static float IntersectTile(const PrimFrame& f, int prim, const float* tx, const float* ty,
+                             const float* tz, F4* t_best, F4* id_best, Kernel kernel) {
     const float* m = f.m;
-    const int tw = u1 - u0;
-    for (int v = v0; v < v1; ++v) {
-      const size_t row = static_cast<size_t>(v) * width;
-      const float* x = rx.data() + row;
-      const float* y = ry.data() + row;
-      const float* z = rz.data() + row;
-      float* tb = t_best + (v - v0) * tw;
-      int* ib = id_best + (v - v0) * tw;
-      for (int u = u0; u < u1; ++u) {
-        const float cx = x[u], cy = y[u], cz = z[u];
-        const float t = kernel(m[0] * cx + m[1] * cy + m[2] * cz, m[3] * cx + m[4] * cy + m[5] * cz,
-                               m[6] * cx + m[7] * cy + m[8] * cz);
-        const int k = u - u0;
-        if (t < tb[k]) {
-          tb[k] = t;
-          ib[k] = prim;
-        }
-      }
+    const F4 m0 = Splat(m[0]), m1 = Splat(m[1]), m2 = Splat(m[2]), m3 = Splat(m[3]),
+             m4 = Splat(m[4]), m5 = Splat(m[5]), m6 = Splat(m[6]), m7 = Splat(m[7]),
+             m8 = Splat(m[8]);
+    const F4 id = Splat(static_cast<float>(prim));
+    F4 t_max = Splat(0.0f);
+    for (int j = 0; j < kTile * kTile / 4; ++j) {
+      const F4 cx = Load4(tx + 4 * j), cy = Load4(ty + 4 * j), cz = Load4(tz + 4 * j);
+      const F4 t = kernel(m0 * cx + m1 * cy + m2 * cz, m3 * cx + m4 * cy + m5 * cz,
+                          m6 * cx + m7 * cy + m8 * cz);
+      const I4 better = t < t_best[j];
+      t_best[j] = Select(better, t, t_best[j]);
+      id_best[j] = Select(better, id, id_best[j]);
+      t_max = Max4(t_best[j], t_max);
     }
+    return HMax4(t_max);
   }
 };
 
@@ -192,6 +435,23 @@ CameraRenderer::CameraRenderer(std::shared_ptr<const World> world,
   for (int ty = 0; ty < s.tiles_y; ++ty) {
     for (int tx = 0; tx < s.tiles_x; ++tx)
       s.tile_cones.push_back(cone_of(tx * kTile, ty * kTile, kTile));
+  }
+  const size_t tile_rays = static_cast<size_t>(s.tiles_x) * s.tiles_y * kTile * kTile;
+  s.tile_rx.assign(tile_rays, 0.0f);
+  s.tile_ry.assign(tile_rays, 0.0f);
+  s.tile_rz.assign(tile_rays, 0.0f);
+  s.tile_t0.assign(tile_rays, 0.0f);
+  for (int v = 0; v < s.height; ++v) {
+    for (int u = 0; u < s.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * s.width + u;
+      const size_t k = (static_cast<size_t>(v / kTile) * s.tiles_x + u / kTile) * kTile * kTile +
+                       (v % kTile) * kTile + u % kTile;
+      s.tile_rx[k] = s.rx[i];
+      s.tile_ry[k] = s.ry[i];
+      s.tile_rz[k] = s.rz[i];
+      const bool valid = s.rx[i] != 0 || s.ry[i] != 0 || s.rz[i] != 0;
+      s.tile_t0[k] = valid ? std::numeric_limits<float>::infinity() : 0.0f;
+    }
   }
   for (int sy = 0; sy < s.supers_y; ++sy) {
     for (int sx = 0; sx < s.supers_x; ++sx) {
@@ -267,64 +527,136 @@ void CameraRenderer::BlurByReprojection(const std::vector<float>& sharp,
     }
   }
   const camera::PinholeRadTan& cam = s.camera;
-  const float fx = static_cast<float>(cam.fx), fy = static_cast<float>(cam.fy);
-  const float cx = static_cast<float>(cam.cx), cy = static_cast<float>(cam.cy);
-  const float k1 = static_cast<float>(cam.k1), k2 = static_cast<float>(cam.k2);
-  const float p1 = static_cast<float>(cam.p1), p2 = static_cast<float>(cam.p2);
-  // Camera model in float (same equations as PinholeRadTan::Project).
-  auto project = [&](float X, float Y, float Z, float* u, float* v) {
-    const float x = X / Z, y = Y / Z;
-    const float r2 = x * x + y * y;
-    const float radial = 1.0f + k1 * r2 + k2 * r2 * r2;
-    const float xd = x * radial + 2.0f * p1 * x * y + p2 * (r2 + 2.0f * x * x);
-    const float yd = y * radial + p1 * (r2 + 2.0f * y * y) + 2.0f * p2 * x * y;
+  const F4 fx = Splat(static_cast<float>(cam.fx)), fy = Splat(static_cast<float>(cam.fy));
+  const F4 cx = Splat(static_cast<float>(cam.cx)), cy = Splat(static_cast<float>(cam.cy));
+  const F4 k1 = Splat(static_cast<float>(cam.k1)), k2 = Splat(static_cast<float>(cam.k2));
+  const F4 p1 = Splat(static_cast<float>(cam.p1)), p2 = Splat(static_cast<float>(cam.p2));
+  const F4 one = Splat(1.0f), two = Splat(2.0f);
+  // Camera model in float, 4 points at a time (same equations as PinholeRadTan::Project).
+  auto project = [&](F4 X, F4 Y, F4 Z, F4* u, F4* v) {
+    const F4 iz = one / Z;
+    const F4 x = X * iz, y = Y * iz;
+    const F4 r2 = x * x + y * y;
+    const F4 radial = one + k1 * r2 + k2 * r2 * r2;
+    const F4 xy2 = two * x * y;
+    const F4 xd = x * radial + p1 * xy2 + p2 * (r2 + two * x * x);
+    const F4 yd = y * radial + p1 * (r2 + two * y * y) + p2 * xy2;
     *u = fx * xd + cx;
     *v = fy * yd + cy;
   };
-  auto bilinear = [&](float u, float v) {
-    u = std::clamp(u, 0.0f, static_cast<float>(w - 1));
-    v = std::clamp(v, 0.0f, static_cast<float>(h - 1));
-    const int iu = std::min(static_cast<int>(u), w - 2), iv = std::min(static_cast<int>(v), h - 2);
-    const float au = u - static_cast<float>(iu), av = v - static_cast<float>(iv);
-    const float* r0 = sharp.data() + static_cast<size_t>(iv) * w + iu;
-    const float* r1 = r0 + w;
-    const float top = r0[0] + au * (r0[1] - r0[0]);
-    const float bottom = r1[0] + au * (r1[1] - r1[0]);
-    return top + av * (bottom - top);
+  const F4 far = Splat(1e4f);  // sky: a point far away
+  const F4 min_z = Splat(1e-3f), still = Splat(0.05f), zero = Splat(0.0f), half = Splat(0.5f);
+  const F4 max_n = Splat(static_cast<float>(max_samples));
+  const F4 u_max = Splat(static_cast<float>(w - 1)), v_max = Splat(static_cast<float>(h - 1));
+  const F4 margin = Splat(0.01f), u_inner = u_max - margin, v_inner = v_max - margin;
+  const F4 u_cell = Splat(static_cast<float>(std::max(w - 2, 0)));
+  const F4 v_cell = Splat(static_cast<float>(std::max(h - 2, 0)));
+  const F4 stride = Splat(static_cast<float>(w));
+  const F4 lane = F4{0, 1, 2, 3};
+  // The motions' coefficients splatted once (the loop body needs more registers than there are).
+  F4 RO[9], RC[9], TO[3], TC[3];
+  for (int k = 0; k < 9; ++k) {
+    RO[k] = Splat(ro[k]);
+    RC[k] = Splat(rc[k]);
+  }
+  for (int k = 0; k < 3; ++k) {
+    TO[k] = Splat(to[k]);
+    TC[k] = Splat(tc[k]);
+  }
+  const float* img = sharp.data();
+  // 4 values from i on, zero past the end of the image.
+  auto load = [n](const float* p, size_t i) {
+    if (i + 4 <= n) return Load4(p + i);
+    F4 r = Splat(0.0f);
+    for (size_t j = 0; i + j < n; ++j) r[j] = p[i + j];
+    return r;
   };
-  constexpr float kFar = 1e4f;  // sky: a point far away
+  MAV_CHECK(w >= 2 && h >= 2);
   for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) {
-      const size_t i = static_cast<size_t>(v) * w + u;
-      float& out = (*blurred)[i];
-      out = sharp[i];
-      const float t = std::min(range[i], kFar);
-      const float X = s.rx[i] * t, Y = s.ry[i] * t, Z = s.rz[i] * t;
-      const float Xo = ro[0] * X + ro[1] * Y + ro[2] * Z + to[0];
-      const float Yo = ro[3] * X + ro[4] * Y + ro[5] * Z + to[1];
-      const float Zo = ro[6] * X + ro[7] * Y + ro[8] * Z + to[2];
-      const float Xc = rc[0] * X + rc[1] * Y + rc[2] * Z + tc[0];
-      const float Yc = rc[3] * X + rc[4] * Y + rc[5] * Z + tc[1];
-      const float Zc = rc[6] * X + rc[7] * Y + rc[8] * Z + tc[2];
-      if (!(Z > 1e-3f) || !(Zo > 1e-3f) || !(Zc > 1e-3f)) continue;
-      // The mid-shutter projection is the pixel itself (its ray came from the same model).
-      const float um = static_cast<float>(u), vm = static_cast<float>(v);
-      float uo, vo, uc, vc;
-      project(Xo, Yo, Zo, &uo, &vo);
-      project(Xc, Yc, Zc, &uc, &vc);
-      // At shutter time tau the pixel sees the point that sits at p - flow(tau) mid-shutter.
-      const float ao = uo - um, bo = vo - vm, ac = uc - um, bc = vc - vm;
-      const float du = ac - ao, dv = bc - bo;
-      const float length = std::sqrt(du * du + dv * dv);
-      if (length < 0.05f && std::abs(ao + ac) < 0.05f && std::abs(bo + bc) < 0.05f) continue;
-      const int samples = std::clamp(static_cast<int>(length) + 1, 1, max_samples);
-      float sum = 0;
-      for (int k = 0; k < samples; ++k) {
-        const float tau = (static_cast<float>(k) + 0.5f) / static_cast<float>(samples);
-        const float fu = ao + tau * du, fv = bo + tau * dv;
-        sum += bilinear(static_cast<float>(u) - fu, static_cast<float>(v) - fv);
+    const size_t row = static_cast<size_t>(v) * w;
+    const F4 vf = Splat(static_cast<float>(v));
+    for (int u = 0; u < w; u += 4) {
+      const size_t i = row + u;
+      // Surface point of each pixel (mid-shutter camera), in the open and close cameras.
+      const F4 t = Min4(load(range.data(), i), far);
+      const F4 X = load(s.rx.data(), i) * t, Y = load(s.ry.data(), i) * t,
+               Z = load(s.rz.data(), i) * t;
+      const F4 Xo = RO[0] * X + RO[1] * Y + RO[2] * Z + TO[0];
+      const F4 Yo = RO[3] * X + RO[4] * Y + RO[5] * Z + TO[1];
+      const F4 Zo = RO[6] * X + RO[7] * Y + RO[8] * Z + TO[2];
+      const F4 Xc = RC[0] * X + RC[1] * Y + RC[2] * Z + TC[0];
+      const F4 Yc = RC[3] * X + RC[4] * Y + RC[5] * Z + TC[1];
+      const F4 Zc = RC[6] * X + RC[7] * Y + RC[8] * Z + TC[2];
+      const I4 ok = (Z > min_z) & (Zo > min_z) & (Zc > min_z);
+      F4 uo, vo, uc, vc;
+      project(Xo, Yo, Select(ok, Zo, one), &uo, &vo);
+      project(Xc, Yc, Select(ok, Zc, one), &uc, &vc);
+      // At shutter time tau the pixel sees the point that sits at p - flow(tau) mid-shutter
+      // (flow from open to close: a + tau d).
+      const F4 um = Splat(static_cast<float>(u)) + lane;
+      const F4 ao = Select(ok, uo - um, zero), bo = Select(ok, vo - vf, zero);
+      const F4 du = Select(ok, uc - um, zero) - ao, dv = Select(ok, vc - vf, zero) - bo;
+      const F4 length = Sqrt4(du * du + dv * dv);
+      const I4 is_still =
+          (length < still) & (Abs4(two * ao + du) < still) & (Abs4(two * bo + dv) < still);
+      const F4 sharp4 = load(img, i);
+      F4 out = sharp4;
+      if (!All4(is_still)) {
+        // samples = clamp(floor(length) + 1, 1, max_samples), one per pixel of motion.
+        const F4 count = Max4(Min4(ToFloat4(TruncToInt4(Min4(length, max_n))) + one, max_n), one);
+        const F4 inv = one / count;
+        // Sample k at tau = (k + 0.5) / count: position (u, v) - (a + tau d).
+        const F4 su = -du * inv, sv = -dv * inv;
+        const F4 pu = um - ao + half * su, pv = vf - bo + half * sv;
+        const int n_max = static_cast<int>(HMax4(count));
+        F4 sum = zero;
+        // All samples of the 4 segments inside the image: no clamping.
+        const F4 last = Splat(static_cast<float>(n_max - 1));
+        const F4 qu = pu + last * su, qv = pv + last * sv;
+        // (A margin keeps the incrementally stepped positions inside too.)
+        if (All4((Min4(pu, qu) >= margin) & (Max4(pu, qu) < u_inner) & (Min4(pv, qv) >= margin) &
+                 (Max4(pv, qv) < v_inner))) {
+          auto integrate = [&](auto all_lanes_active) {
+            F4 x = pu, y = pv;
+            for (int k = 0; k < n_max; ++k) {
+              const F4 ix = ToFloat4(TruncToInt4(x)), iy = ToFloat4(TruncToInt4(y));
+              const I4 idx = TruncToInt4(iy * stride + ix);
+              const F4 value = Bilinear4(img, idx, static_cast<size_t>(w), x - ix, y - iy);
+              if constexpr (all_lanes_active) {
+                sum += value;
+              } else {
+                sum += Select(Splat(static_cast<float>(k)) < count, value, zero);
+              }
+              x += su;
+              y += sv;
+            }
+          };
+          if (All4(count == Splat(count[0]))) {
+            integrate(std::true_type{});
+          } else {
+            integrate(std::false_type{});
+          }
+          out = Select(is_still, sharp4, sum * inv);
+        } else {
+          for (int k = 0; k < n_max; ++k) {
+            const F4 kf = Splat(static_cast<float>(k));
+            // Clamped to the image like a border-replicated image.
+            const F4 x = Max4(Min4(pu + kf * su, u_max), zero);
+            const F4 y = Max4(Min4(pv + kf * sv, v_max), zero);
+            const F4 ix = Min4(ToFloat4(TruncToInt4(x)), u_cell);
+            const F4 iy = Min4(ToFloat4(TruncToInt4(y)), v_cell);
+            const I4 idx = TruncToInt4(iy * stride + ix);  // exact: < 2^24 texels
+            const F4 value = Bilinear4(img, idx, static_cast<size_t>(w), x - ix, y - iy);
+            sum += Select(kf < count, value, zero);
+          }
+          out = Select(is_still, sharp4, sum * inv);
+        }
       }
-      out = sum / static_cast<float>(samples);
+      if (u + 4 <= w) {
+        Store4(blurred->data() + i, out);
+      } else {
+        for (int j = 0; u + j < w; ++j) (*blurred)[i + j] = out[j];
+      }
     }
   }
 }
@@ -348,29 +680,40 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
     for (int k = 0; k < 3; ++k) {
       f.o[k] = static_cast<float>(o[k]);
       f.h[k] = static_cast<float>(p.half_size[k]);
+      f.inv_h[k] = 1.0f / std::max(f.h[k], 1e-9f);
       f.light[k] = static_cast<float>(l[k]);
       for (int j = 0; j < 3; ++j) f.m[3 * k + j] = static_cast<float>(m(k, j));
     }
+    f.uv_offset[0] = static_cast<float>(p.uv_offset.x());
+    f.uv_offset[1] = static_cast<float>(p.uv_offset.y());
+    f.emission = materials[p.material].emission;
+    f.texture = textures[p.material];
     f.type = p.type;
   }
   // Proxy spheres in the camera frame.
   const Eigen::Matrix3d R_cw = R_wc.transpose();
   const size_t np = proxies.size();
-  std::vector<float> pc(4 * np);
+  std::vector<SphereView> spheres(np);
   for (size_t i = 0; i < np; ++i) {
     const Eigen::Vector3d c = R_cw * (proxies[i].center - o_w);
-    pc[4 * i] = static_cast<float>(c.x());
-    pc[4 * i + 1] = static_cast<float>(c.y());
-    pc[4 * i + 2] = static_cast<float>(c.z());
-    pc[4 * i + 3] = static_cast<float>(proxies[i].radius);
+    spheres[i] = ViewSphere(static_cast<float>(c.x()), static_cast<float>(c.y()),
+                            static_cast<float>(c.z()), static_cast<float>(proxies[i].radius));
   }
 
-  std::vector<int> super_list, tile_list;
+  std::vector<int> super_list;
+  std::vector<Candidate> tile_list;
   super_list.reserve(np);
   tile_list.reserve(prims.size());
-  std::vector<int> stamp(prims.size(), -1);
-  float t_best[kTile * kTile];
-  int id_best[kTile * kTile];
+  std::vector<int> stamp(prims.size(), -1), slot(prims.size(), 0);
+  constexpr int kRays = kTile * kTile;
+  F4 t_best4[kRays / 4];
+  F4 id_best4[kRays / 4];
+  // Shading inputs per tile pixel.
+  alignas(16) float sh_u[kRays], sh_v[kRays], sh_fp[kRays], sh_shade[kRays], sh_emit[kRays],
+      sh_t[kRays], sh_rad[kRays];
+  const Texture* sh_tex[kRays];
+  TexLookup4 lookups[kRays / 4];
+  bool has_texture[kRays / 4];
   const float background = static_cast<float>(lighting.background);
   const float ambient = static_cast<float>(lighting.ambient);
   const float diffuse = static_cast<float>(lighting.diffuse);
@@ -381,7 +724,7 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
       super_list.clear();
       if (!sc.empty) {
         for (size_t i = 0; i < np; ++i) {
-          if (ConeHitsSphere(sc, pc[4 * i], pc[4 * i + 1], pc[4 * i + 2], pc[4 * i + 3])) {
+          if (ConeHitsSphere(sc, spheres[i])) {
             super_list.push_back(static_cast<int>(i));
           }
         }
@@ -393,111 +736,249 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
           tile_list.clear();
           if (!tc.empty) {
             for (int pi : super_list) {
+              const SphereView& sphere = spheres[pi];
+              if (!ConeHitsSphere(tc, sphere)) continue;
+              const float near = sphere.near;
               const int prim = proxies[pi].primitive;
-              if (stamp[prim] == tile_index) continue;
-              if (ConeHitsSphere(tc, pc[4 * pi], pc[4 * pi + 1], pc[4 * pi + 2], pc[4 * pi + 3])) {
+              if (stamp[prim] == tile_index) {
+                float& best = tile_list[slot[prim]].near;
+                best = std::min(best, near);
+              } else {
                 stamp[prim] = tile_index;
-                tile_list.push_back(prim);
+                slot[prim] = static_cast<int>(tile_list.size());
+                tile_list.push_back({near, prim});
               }
             }
           }
+          // Nearest first (ties by index: deterministic).
+          std::sort(tile_list.begin(), tile_list.end(), [](const Candidate& a, const Candidate& b) {
+            return a.near < b.near || (a.near == b.near && a.primitive < b.primitive);
+          });
+          const size_t base = static_cast<size_t>(tile_index) * kRays;
+          const float* trx = tile_rx.data() + base;
+          const float* try_ = tile_ry.data() + base;
+          const float* trz = tile_rz.data() + base;
+          float t_max = 0;
+          for (int j = 0; j < kRays / 4; ++j) {
+            t_best4[j] = Load4(tile_t0.data() + base + 4 * j);
+            id_best4[j] = Splat(-1.0f);
+            t_max = std::max(t_max, HMax4(t_best4[j]));
+          }
+          // Intersection, nearest candidate first; stops when every pixel of the tile already
+          // has a hit nearer than the next candidate can be.
+          for (const Candidate& cand : tile_list) {
+            if (cand.near > t_max) break;
+            const int prim = cand.primitive;
+            const PrimFrame& f = frames[prim];
+            const F4 ox = Splat(f.o[0]), oy = Splat(f.o[1]), oz = Splat(f.o[2]);
+            const F4 t_min = Splat(kTMin), inf = Splat(std::numeric_limits<float>::infinity());
+            switch (f.type) {
+              case PrimitiveType::kBox: {
+                const F4 lx = Splat(-f.h[0] - f.o[0]), hx = Splat(f.h[0] - f.o[0]);
+                const F4 ly = Splat(-f.h[1] - f.o[1]), hy = Splat(f.h[1] - f.o[1]);
+                const F4 lz = Splat(-f.h[2] - f.o[2]), hz = Splat(f.h[2] - f.o[2]);
+                const F4 one = Splat(1.0f);
+                t_max = IntersectTile(
+                    f, prim, trx, try_, trz, t_best4, id_best4, [&](F4 dx, F4 dy, F4 dz) {
+                      // Slab method (internal::RayBoxLocal), 4 rays.
+                      const F4 ix = one / dx, iy = one / dy, iz = one / dz;
+                      const F4 tx1 = lx * ix, tx2 = hx * ix;
+                      const F4 ty1 = ly * iy, ty2 = hy * iy;
+                      const F4 tz1 = lz * iz, tz2 = hz * iz;
+                      const F4 tn = Max4(Max4(Min4(tx1, tx2), Min4(ty1, ty2)), Min4(tz1, tz2));
+                      const F4 tf = Min4(Min4(Max4(tx1, tx2), Max4(ty1, ty2)), Max4(tz1, tz2));
+                      const I4 hit = (tn <= tf) & (tf > t_min);
+                      return Select(hit, Select(tn > t_min, tn, tf), inf);
+                    });
+                break;
+              }
+              case PrimitiveType::kCylinder: {
+                const F4 r = Splat(f.h[0]), hh = Splat(f.h[2]);
+                const F4 r2 = r * r;
+                const F4 zero = Splat(0.0f), eps = Splat(1e-12f);
+                t_max = IntersectTile(
+                    f, prim, trx, try_, trz, t_best4, id_best4, [&](F4 dx, F4 dy, F4 dz) {
+                      // internal::RayCylinderLocal, 4 rays.
+                      const F4 a = dx * dx + dy * dy;
+                      const F4 b = ox * dx + oy * dy;
+                      const F4 cross = ox * dy - oy * dx;
+                      const F4 disc = r2 * a - cross * cross;
+                      const F4 sq = Sqrt4(Max4(disc, zero));
+                      const F4 ia = Splat(1.0f) / Select(a > eps, a, Splat(1.0f));
+                      const F4 t1 = (-b - sq) * ia, t2 = (-b + sq) * ia;
+                      const F4 ts = Select(t1 > t_min, t1, t2);
+                      F4 best = Select(
+                          (a > eps) & (disc >= zero) & (ts > t_min) & (Abs4(oz + ts * dz) <= hh),
+                          ts, inf);
+                      const I4 axial = dz != zero;
+                      const F4 iz = Splat(1.0f) / Select(axial, dz, Splat(1.0f));
+                      for (const F4 cap : {-hh, hh}) {
+                        const F4 t = (cap - oz) * iz;
+                        const F4 x = ox + t * dx, y = oy + t * dy;
+                        best = Select(axial & (t > t_min) & (t < best) & (x * x + y * y <= r2), t,
+                                      best);
+                      }
+                      return best;
+                    });
+                break;
+              }
+              case PrimitiveType::kRectangle: {
+                const F4 hx = Splat(f.h[0]), hy = Splat(f.h[1]);
+                const F4 zero = Splat(0.0f), minus_oz = Splat(-f.o[2]);
+                t_max = IntersectTile(
+                    f, prim, trx, try_, trz, t_best4, id_best4, [&](F4 dx, F4 dy, F4 dz) {
+                      // internal::RayRectangleLocal, 4 rays.
+                      const I4 crossing = dz != zero;
+                      const F4 t = minus_oz / Select(crossing, dz, Splat(1.0f));
+                      const I4 hit = crossing & (t > t_min) & (Abs4(ox + t * dx) <= hx) &
+                                     (Abs4(oy + t * dy) <= hy);
+                      return Select(hit, t, inf);
+                    });
+                break;
+              }
+            }
+          }
+          // Shading, pass 1 (per pixel): surface point, normal, texture coordinates, footprint.
+          const float* t_best = reinterpret_cast<const float*>(t_best4);
+          const float* id_best = reinterpret_cast<const float*>(id_best4);
           const int u0 = tx * kTile, v0 = ty * kTile;
           const int u1 = std::min(u0 + kTile, width), v1 = std::min(v0 + kTile, height);
-          const int tw = u1 - u0;
-          const int count = tw * (v1 - v0);
-          for (int k = 0; k < count; ++k) {
-            t_best[k] = std::numeric_limits<float>::infinity();
-            id_best[k] = -1;
-          }
-          // Intersection: primitive-major so the inner loop is a coherent run over pixels.
-          for (int prim : tile_list) {
+          const Texture* any_texture = nullptr;
+          auto shade_pixel = [&](int k) {
+            const int prim = static_cast<int>(id_best[k]);
+            const int v = v0 + k / kTile, u = u0 + k % kTile;
+            const size_t i =
+                static_cast<size_t>(std::min(v, height - 1)) * width + std::min(u, width - 1);
+            const float cx = trx[k], cy = try_[k], cz = trz[k];
+            if (prim < 0) {
+              const bool valid = cx != 0 || cy != 0 || cz != 0;
+              sh_tex[k] = nullptr;
+              sh_u[k] = sh_v[k] = sh_fp[k] = sh_shade[k] = 0.0f;
+              sh_emit[k] = valid ? background : 0.0f;
+              sh_t[k] = std::numeric_limits<float>::infinity();
+              return;
+            }
+            const float t = t_best[k];
+            sh_t[k] = t;
             const PrimFrame& f = frames[prim];
-            switch (f.type) {
-              case PrimitiveType::kBox:
-                IntersectTile(f, prim, u0, u1, v0, v1, t_best, id_best,
-                              [&f](float dx, float dy, float dz) {
-                                return internal::RayBoxLocal(f.o[0], f.o[1], f.o[2], dx, dy, dz,
-                                                             f.h[0], f.h[1], f.h[2], kTMin);
-                              });
-                break;
-              case PrimitiveType::kCylinder:
-                IntersectTile(f, prim, u0, u1, v0, v1, t_best, id_best,
-                              [&f](float dx, float dy, float dz) {
-                                return internal::RayCylinderLocal(f.o[0], f.o[1], f.o[2], dx, dy,
-                                                                  dz, f.h[0], f.h[2], kTMin);
-                              });
-                break;
-              case PrimitiveType::kRectangle:
-                IntersectTile(f, prim, u0, u1, v0, v1, t_best, id_best,
-                              [&f](float dx, float dy, float dz) {
-                                return internal::RayRectangleLocal(f.o[0], f.o[1], f.o[2], dx, dy,
-                                                                   dz, f.h[0], f.h[1], kTMin);
-                              });
-                break;
+            const float* m = f.m;
+            const float dx = m[0] * cx + m[1] * cy + m[2] * cz;
+            const float dy = m[3] * cx + m[4] * cy + m[5] * cz;
+            const float dz = m[6] * cx + m[7] * cy + m[8] * cz;
+            const float px = f.o[0] + t * dx, py = f.o[1] + t * dy, pz = f.o[2] + t * dz;
+            float nx = 0, ny = 0, nz = 1, su = px, sv = py;
+            if (f.type == PrimitiveType::kBox) {
+              const float ax = std::abs(px) * f.inv_h[0];
+              const float ay = std::abs(py) * f.inv_h[1];
+              const float az = std::abs(pz) * f.inv_h[2];
+              if (ax >= ay && ax >= az) {
+                nx = px > 0 ? 1.0f : -1.0f;
+                nz = 0;
+                su = py;
+                sv = pz;
+              } else if (ay >= az) {
+                ny = py > 0 ? 1.0f : -1.0f;
+                nz = 0;
+                su = px;
+                sv = pz;
+              } else {
+                nz = pz > 0 ? 1.0f : -1.0f;
+              }
+            } else if (f.type == PrimitiveType::kCylinder) {
+              const float r = f.h[0];
+              const float radial2 = px * px + py * py;
+              if (std::abs(pz) >= f.h[2] * (1 - 1e-5f) && radial2 < r * r * (1 - 1e-4f)) {
+                nz = pz > 0 ? 1.0f : -1.0f;
+              } else {
+                const float inv = 1.0f / std::sqrt(std::max(radial2, 1e-20f));
+                nx = px * inv;
+                ny = py * inv;
+                nz = 0;
+                su = std::atan2(py, px) * r;
+                sv = pz;
+              }
             }
+            const float cos_inc = std::abs(nx * dx + ny * dy + nz * dz);
+            const float n_dot_l = nx * f.light[0] + ny * f.light[1] + nz * f.light[2];
+            sh_shade[k] = ambient + diffuse * (0.5f + 0.5f * n_dot_l);
+            sh_fp[k] = t * pixel_angle[i] / std::max(cos_inc, 0.2f);
+            sh_u[k] = su + f.uv_offset[0];
+            sh_v[k] = sv + f.uv_offset[1];
+            sh_emit[k] = f.emission;
+            sh_tex[k] = f.texture;
+            any_texture = f.texture;
+          };
+          const F4 zero4 = Splat(0.0f), one4 = Splat(1.0f), minus_one4 = Splat(-1.0f);
+          for (int k = 0; k < kRays; k += 4) {
+            const F4 ids = id_best4[k / 4];
+            const int prim = static_cast<int>(ids[0]);
+            const int v = v0 + k / kTile, u = u0 + k % kTile;
+            const bool uniform = prim >= 0 && All4(ids == Splat(ids[0])) && v < height &&
+                                 u + 4 <= width && frames[prim].type != PrimitiveType::kCylinder;
+            if (!uniform) {
+              for (int j = 0; j < 4; ++j) shade_pixel(k + j);
+              continue;
+            }
+            // The 4 pixels hit the same box or rectangle: the same computation, 4-wide.
+            const PrimFrame& f = frames[prim];
+            const size_t i = static_cast<size_t>(v) * width + u;
+            const F4 cx = Load4(trx + k), cy = Load4(try_ + k), cz = Load4(trz + k);
+            const float* m = f.m;
+            const F4 dx = Splat(m[0]) * cx + Splat(m[1]) * cy + Splat(m[2]) * cz;
+            const F4 dy = Splat(m[3]) * cx + Splat(m[4]) * cy + Splat(m[5]) * cz;
+            const F4 dz = Splat(m[6]) * cx + Splat(m[7]) * cy + Splat(m[8]) * cz;
+            const F4 t = t_best4[k / 4];
+            const F4 px = Splat(f.o[0]) + t * dx, py = Splat(f.o[1]) + t * dy,
+                     pz = Splat(f.o[2]) + t * dz;
+            F4 nx = zero4, ny = zero4, nz = one4, su = px, sv = py;
+            if (f.type == PrimitiveType::kBox) {
+              const F4 ax = Abs4(px) * Splat(f.inv_h[0]);
+              const F4 ay = Abs4(py) * Splat(f.inv_h[1]);
+              const F4 az = Abs4(pz) * Splat(f.inv_h[2]);
+              const I4 on_x = (ax >= ay) & (ax >= az);
+              const I4 on_y = ~on_x & (ay >= az);
+              const I4 on_z = ~on_x & ~on_y;
+              nx = Select(on_x, Select(px > zero4, one4, minus_one4), zero4);
+              ny = Select(on_y, Select(py > zero4, one4, minus_one4), zero4);
+              nz = Select(on_z, Select(pz > zero4, one4, minus_one4), zero4);
+              su = Select(on_x, py, px);
+              sv = Select(on_z, py, pz);
+            }
+            const F4 cos_inc = Abs4(nx * dx + ny * dy + nz * dz);
+            const F4 n_dot_l =
+                nx * Splat(f.light[0]) + ny * Splat(f.light[1]) + nz * Splat(f.light[2]);
+            Store4(sh_shade + k,
+                   Splat(ambient) + Splat(diffuse) * (Splat(0.5f) + Splat(0.5f) * n_dot_l));
+            Store4(sh_fp + k, t * Load4(pixel_angle.data() + i) / Max4(cos_inc, Splat(0.2f)));
+            Store4(sh_u + k, su + Splat(f.uv_offset[0]));
+            Store4(sh_v + k, sv + Splat(f.uv_offset[1]));
+            Store4(sh_emit + k, Splat(f.emission));
+            Store4(sh_t + k, t);
+            for (int j = 0; j < 4; ++j) sh_tex[k + j] = f.texture;
+            any_texture = f.texture;
           }
-          // Shading.
+          // Pass 2 (4 pixels at a time): texel addresses (prefetched) for the whole tile, then
+          // the trilinear samples and the radiance.
+          for (int g = 0; g < kRays / 4; ++g) {
+            const int k = 4 * g;
+            has_texture[g] = any_texture != nullptr &&
+                             (sh_tex[k] || sh_tex[k + 1] || sh_tex[k + 2] || sh_tex[k + 3]);
+            if (!has_texture[g]) continue;
+            const Texture* tex[4];
+            for (int j = 0; j < 4; ++j) tex[j] = sh_tex[k + j] ? sh_tex[k + j] : any_texture;
+            TexAddress4(tex, Load4(sh_u + k), Load4(sh_v + k), Load4(sh_fp + k), &lookups[g]);
+          }
+          for (int g = 0; g < kRays / 4; ++g) {
+            const int k = 4 * g;
+            F4 value = Load4(sh_emit + k);
+            if (has_texture[g]) value += TexFetch4(lookups[g]) * Load4(sh_shade + k);
+            Store4(sh_rad + k, value);
+          }
           for (int v = v0; v < v1; ++v) {
-            for (int u = u0; u < u1; ++u) {
-              const size_t i = static_cast<size_t>(v) * width + u;
-              const int k = (v - v0) * tw + (u - u0);
-              const int prim = id_best[k];
-              if (range) range[i] = t_best[k];
-              if (prim < 0) {
-                radiance[i] = (rx[i] == 0 && ry[i] == 0 && rz[i] == 0) ? 0.0f : background;
-                continue;
-              }
-              const PrimFrame& f = frames[prim];
-              const Primitive& p = prims[prim];
-              const float* m = f.m;
-              const float cx = rx[i], cy = ry[i], cz = rz[i];
-              const float dx = m[0] * cx + m[1] * cy + m[2] * cz;
-              const float dy = m[3] * cx + m[4] * cy + m[5] * cz;
-              const float dz = m[6] * cx + m[7] * cy + m[8] * cz;
-              const float t = t_best[k];
-              const float px = f.o[0] + t * dx, py = f.o[1] + t * dy, pz = f.o[2] + t * dz;
-              float nx = 0, ny = 0, nz = 1, su = px, sv = py;
-              if (f.type == PrimitiveType::kBox) {
-                const float ax = std::abs(px) / std::max(f.h[0], 1e-9f);
-                const float ay = std::abs(py) / std::max(f.h[1], 1e-9f);
-                const float az = std::abs(pz) / std::max(f.h[2], 1e-9f);
-                if (ax >= ay && ax >= az) {
-                  nx = px > 0 ? 1.0f : -1.0f;
-                  nz = 0;
-                  su = py;
-                  sv = pz;
-                } else if (ay >= az) {
-                  ny = py > 0 ? 1.0f : -1.0f;
-                  nz = 0;
-                  su = px;
-                  sv = pz;
-                } else {
-                  nz = pz > 0 ? 1.0f : -1.0f;
-                }
-              } else if (f.type == PrimitiveType::kCylinder) {
-                const float r = f.h[0];
-                const float radial2 = px * px + py * py;
-                if (std::abs(pz) >= f.h[2] * (1 - 1e-5f) && radial2 < r * r * (1 - 1e-4f)) {
-                  nz = pz > 0 ? 1.0f : -1.0f;
-                } else {
-                  const float inv = 1.0f / std::sqrt(std::max(radial2, 1e-20f));
-                  nx = px * inv;
-                  ny = py * inv;
-                  nz = 0;
-                  su = std::atan2(py, px) * r;
-                  sv = pz;
-                }
-              }
-              const float cos_inc = std::abs(nx * dx + ny * dy + nz * dz);
-              const float n_dot_l = nx * f.light[0] + ny * f.light[1] + nz * f.light[2];
-              const float shade = ambient + diffuse * (0.5f + 0.5f * n_dot_l);
-              const float footprint = t * pixel_angle[i] / std::max(cos_inc, 0.2f);
-              const Material& mat = materials[p.material];
-              const float albedo =
-                  textures[p.material]->Sample(su + static_cast<float>(p.uv_offset.x()),
-                                               sv + static_cast<float>(p.uv_offset.y()), footprint);
-              radiance[i] = albedo * shade + mat.emission;
-            }
+            const size_t i = static_cast<size_t>(v) * width + u0;
+            const int k = (v - v0) * kTile;
+            std::copy(sh_rad + k, sh_rad + k + (u1 - u0), radiance + i);
+            if (range) std::copy(sh_t + k, sh_t + k + (u1 - u0), range + i);
           }
         }
       }
@@ -510,24 +991,57 @@ void FormImage(const std::vector<float>& radiance, int width, int height, double
   MAV_CHECK(image != nullptr);
   MAV_CHECK(radiance.size() == static_cast<size_t>(width) * height);
   image->create(height, width, CV_8UC1);
-  const float scale = static_cast<float>(255.0 * gain);
-  // Irwin-Hall with four uniforms: variance 4/12, so scale by sqrt(3) for unit variance.
-  const float noise_scale = static_cast<float>(noise_sigma * std::sqrt(3.0) / 65536.0);
+  typedef uint32_t U4 __attribute__((vector_size(16)));
+  const F4 scale = Splat(static_cast<float>(255.0 * gain));
+  // The sum of four uniform bytes has variance 4 (256^2 - 1) / 12 = 21845.
+  const F4 noise_scale =
+      Splat(noise_sigma > 0 ? static_cast<float>(noise_sigma / std::sqrt(21845.0)) : 0.0f);
+  const F4 noise_offset = Splat(4 * 127.5f);
   const uint64_t key = internal::Mix64(noise_key);
+  const U4 key_lo = U4{0, 0, 0, 0} + static_cast<uint32_t>(key);
+  const U4 key_hi = U4{0, 0, 0, 0} + static_cast<uint32_t>(key >> 32);
+  const U4 lane = U4{0, 1, 2, 3};
+  const U4 low_bytes = U4{0x00ff00ff, 0x00ff00ff, 0x00ff00ff, 0x00ff00ff};
+  // 8-bit values of the 4 pixels from index i on.
+  auto form4 = [&](F4 r, size_t i) {
+    F4 value = scale * r;
+    // Counter-based noise: a 32-bit hash (Wellons' "lowbias32" finaliser) of the pixel index
+    // and key, its four bytes summed (Irwin-Hall, n = 4) and scaled to unit variance.
+    U4 h = (static_cast<uint32_t>(i) + lane) * 0x9e3779b1u + key_lo;
+    h ^= key_hi;
+    h ^= h >> 16;
+    h *= 0x7feb352du;
+    h ^= h >> 15;
+    h *= 0x846ca68bu;
+    h ^= h >> 16;
+    const U4 pairs = (h & low_bytes) + ((h >> 8) & low_bytes);
+    const U4 sum = (pairs & 0xffffu) + (pairs >> 16);
+    value += noise_scale * (ToFloat4((I4)sum) - noise_offset);
+    // Round half up after clamping (values are non-negative there).
+    return TruncToInt4(Max4(Min4(value, Splat(255.0f)), Splat(0.0f)) + Splat(0.5f));
+  };
+  const float* in = radiance.data();
   for (int v = 0; v < height; ++v) {
     uint8_t* row = image->ptr<uint8_t>(v);
-    for (int u = 0; u < width; ++u) {
-      const size_t i = static_cast<size_t>(v) * width + u;
-      float value = scale * radiance[i];
-      if (noise_sigma > 0) {
-        const uint64_t h = internal::Mix64(key ^ (i * 0x9e3779b97f4a7c15ULL));
-        const float sum = static_cast<float>((h & 0xffff) + ((h >> 16) & 0xffff) +
-                                             ((h >> 32) & 0xffff) + (h >> 48)) -
-                          2.0f * 65536.0f;
-        value += noise_scale * sum;
-      }
-      // Round half up after clamping (values are non-negative there).
-      row[u] = static_cast<uint8_t>(static_cast<int>(std::clamp(value, 0.0f, 255.0f) + 0.5f));
+    const size_t row_start = static_cast<size_t>(v) * width;
+    int u = 0;
+#if defined(__SSE2__)
+    for (; u + 16 <= width; u += 16) {
+      const size_t i = row_start + u;
+      const I4 q0 = form4(Load4(in + i), i), q1 = form4(Load4(in + i + 4), i + 4);
+      const I4 q2 = form4(Load4(in + i + 8), i + 8), q3 = form4(Load4(in + i + 12), i + 12);
+      // Values are in [0, 255]: saturating packs are exact.
+      const __m128i lo = _mm_packs_epi32((__m128i)q0, (__m128i)q1);
+      const __m128i hi = _mm_packs_epi32((__m128i)q2, (__m128i)q3);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(row + u), _mm_packus_epi16(lo, hi));
+    }
+#endif
+    for (; u < width; u += 4) {
+      const size_t i = row_start + u;
+      F4 r = Splat(0.0f);
+      for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
+      const I4 q = form4(r, i);
+      for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
     }
   }
 }

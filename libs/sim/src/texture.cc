@@ -161,13 +161,37 @@ Texture::Texture(std::vector<std::vector<float>> levels, float texel_size_m)
       inv_texel_size_m_(1.0f / texel_size_m) {
   MAV_CHECK(!levels_.empty() && texel_size_m > 0);
   MAV_CHECK(static_cast<int>(levels_.size()) <= kMaxLevels);
+  texels_.resize(levels_.size());
   for (size_t l = 0; l < levels_.size(); ++l) {
-    MAV_CHECK(levels_[l].size() == static_cast<size_t>(kSize >> l) * (kSize >> l));
-    level_data_[l] = levels_[l].data();
+    const int n = kSize >> l;
+    MAV_CHECK(levels_[l].size() == static_cast<size_t>(n) * n);
+    // Stored size: at least one block per side (small levels repeat, they wrap anyway).
+    const int stored = std::max(n, kBlockW);
+    texels_[l].resize(static_cast<size_t>(stored) * stored * 4);
+    auto texel = [&](int x, int y) {
+      const float a = levels_[l][static_cast<size_t>(y % n) * n + x % n];
+      return static_cast<uint16_t>(std::round(std::clamp(a, 0.0f, 1.0f) / kAlbedoPerTexel));
+    };
+    for (int y = 0; y < stored; ++y) {
+      for (int x = 0; x < stored; ++x) {
+        uint16_t* q = texels_[l].data() + 4 * (BlockRow(y, stored) + BlockColumn(x));
+        q[0] = texel(x, y);
+        q[1] = texel(x + 1, y);
+        q[2] = texel(x, y + 1);
+        q[3] = texel(x + 1, y + 1);
+      }
+    }
+    level_data_[l] = texels_[l].data();
     level_scale_[l] = inv_texel_size_m_ / static_cast<float>(1 << l);
+    level_size_[l] = stored;
   }
+  const size_t last = levels_.size() - 1;
+  level_data_[last + 1] = level_data_[last];
+  level_scale_[last + 1] = level_scale_[last];
+  level_size_[last + 1] = level_size_[last];
   last_level_ = static_cast<int>(levels_.size()) - 1;
-  coarsest_ = levels_.back()[0];
+  top_pair_ = std::max(last_level_ - 1, 0);
+  max_level_ = static_cast<float>(last_level_);
 }
 
 std::shared_ptr<const Texture> GenerateTexture(const Material& material, uint64_t seed) {

@@ -247,6 +247,99 @@ TEST(RenderTest, NoiseDependsOnSeedOnly) {
   EXPECT_NEAR(sigma[0], std::sqrt(9.0 + 1.0 / 12), 0.1);  // noise + quantisation
 }
 
+// A small cluttered scene: walls and floor (boxes), a tilted box, cylinders (upright and
+// tilted) and a decal, all textured.
+std::shared_ptr<World> MakeClutterWorld() {
+  auto world = std::make_shared<World>();
+  Material noise;
+  noise.pattern = TexturePattern::kSpeckle;
+  const int m = world->AddMaterial(noise);
+  Material bricks;
+  bricks.pattern = TexturePattern::kBricks;
+  const int b = world->AddMaterial(bricks);
+  Material blobs;
+  blobs.pattern = TexturePattern::kBlobs;
+  const int p = world->AddMaterial(blobs);
+  world->AddAlignedBox(Eigen::Vector3d(-5, -5, 4), Eigen::Vector3d(5, 5, 4.2), m);    // ahead
+  world->AddAlignedBox(Eigen::Vector3d(-5, 1.0, -5), Eigen::Vector3d(5, 1.2, 5), b);  // floor
+  world->AddBox(
+      Eigen::Vector3d(-0.8, 0.3, 2.5),
+      Eigen::AngleAxisd(0.6, Eigen::Vector3d(0.2, 1, 0.3).normalized()).toRotationMatrix(),
+      Eigen::Vector3d(0.3, 0.4, 0.2), p);
+  world->AddCylinder(Eigen::Vector3d(0.7, 1.0, 2.0), Eigen::Vector3d(0.7, -1.0, 2.0), 0.15, m);
+  world->AddCylinder(Eigen::Vector3d(-1.5, 0.8, 3.0), Eigen::Vector3d(1.5, -0.2, 3.5), 0.04, b);
+  world->AddRectangle(Eigen::Vector3d(0.2, -0.5, 3.99),
+                      Eigen::Vector3d(1, -1, -1).asDiagonal() * Eigen::Matrix3d::Identity(),
+                      Eigen::Vector2d(0.4, 0.3), p);
+  world->BuildTextures(4);
+  return world;
+}
+
+TEST(RenderTest, RangeMatchesExactRayCasting) {
+  // The renderer's culled, vectorised float intersections against World::CastRay (double
+  // precision, every primitive): the same nearest surface and distance for (almost) every pixel.
+  std::shared_ptr<World> world = MakeClutterWorld();
+  const camera::PinholeRadTan cam = camera::EurocCam0();
+  CameraRenderer renderer(world, cam);
+  const geometry::SE3 T_world_cam(
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.15, Eigen::Vector3d(0.3, 1, 0.1).normalized())),
+      Eigen::Vector3d(0.05, 0.1, -0.2));
+  std::vector<float> radiance, range;
+  renderer.RenderRadiance(T_world_cam, &radiance, &range);
+  int checked = 0, bad = 0;
+  for (int v = 0; v < cam.height; v += 3) {
+    for (int u = 0; u < cam.width; u += 3) {
+      const std::optional<Eigen::Vector3d> ray = cam.Unproject(Eigen::Vector2d(u, v));
+      ASSERT_TRUE(ray.has_value());
+      const Eigen::Vector3d dir = T_world_cam.Rotation() * ray->normalized();
+      const std::optional<RayHit> hit = world->CastRay(T_world_cam.Translation(), dir);
+      const float r = range[static_cast<size_t>(v) * cam.width + u];
+      ++checked;
+      if (!hit) {
+        bad += std::isinf(r) ? 0 : 1;
+      } else if (!(std::abs(r - hit->t) < 1e-3 * hit->t + 1e-4)) {
+        ++bad;  // only where float and double disagree about an edge
+      }
+    }
+  }
+  EXPECT_GT(checked, 30000);
+  EXPECT_LT(bad, 0.001 * checked) << bad << " of " << checked;
+}
+
+TEST(RenderTest, ReprojectionBlurApproximatesSubFrameIntegration) {
+  // A fast rotation (about 12 px of image motion over the shutter) of a static scene: the
+  // reprojection blur of one render matches the mean of 24 sub-frame renders closely, except
+  // at occlusion boundaries; it is much closer to it than the sharp image is.
+  std::shared_ptr<World> world = MakeClutterWorld();
+  CameraRenderer renderer(world, camera::EurocCam0());
+  auto pose = [](double s) {
+    const Eigen::Quaterniond q(
+        Eigen::AngleAxisd(0.1 + 0.026 * s, Eigen::Vector3d(0.3, 1, 0.1).normalized()));
+    return geometry::SE3(q, Eigen::Vector3d(0.05 + 0.01 * s, 0.1, -0.2));
+  };
+  std::vector<float> sharp, range, blurred, exact;
+  renderer.RenderRadiance(pose(0), &sharp, &range);
+  renderer.BlurByReprojection(sharp, range, pose(0), pose(-0.5), pose(0.5), 16, &blurred);
+  std::vector<geometry::SE3> poses;
+  for (int k = 0; k < 24; ++k) poses.push_back(pose((k + 0.5) / 24 - 0.5));
+  renderer.RenderIntegrated(poses, &exact);
+  double err_blur = 0, err_sharp = 0;
+  std::vector<float> abs_err(exact.size());
+  for (size_t i = 0; i < exact.size(); ++i) {
+    abs_err[i] = std::abs(blurred[i] - exact[i]);
+    err_blur += abs_err[i];
+    err_sharp += std::abs(sharp[i] - exact[i]);
+  }
+  err_blur /= exact.size();
+  err_sharp /= exact.size();
+  std::nth_element(abs_err.begin(), abs_err.begin() + abs_err.size() * 95 / 100, abs_err.end());
+  const float p95 = abs_err[abs_err.size() * 95 / 100];
+  std::printf("mean |blur - exact| %.4f, |sharp - exact| %.4f, p95 %.4f\n", err_blur, err_sharp,
+              p95);
+  EXPECT_LT(err_blur, 0.25 * err_sharp);
+  EXPECT_LT(p95, 0.02f);  // 5 DN at gain 1
+}
+
 TEST(RenderTest, UnknownPresetIsInvalidArgumentNamingPreset) {
   ScenarioOptions o;
   o.preset = "rom-easy";

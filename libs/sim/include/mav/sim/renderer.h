@@ -3,15 +3,19 @@
 //
 // Per camera, the viewing ray of every pixel is computed once from the camera model
 // (PinholeRadTan::Unproject, so the images carry the model's exact distortion) into a look-up
-// table, together with a bounding cone per 16 x 16 pixel tile. Per frame, the primitives whose
-// bounding spheres (long primitives are split into several) fall inside a tile's cone are
-// collected, and only those are intersected with the tile's rays, in float precision relative to
-// each primitive's centre. Shading: albedo (trilinearly filtered texture, texture.h) times the
-// world's lighting, plus emission. No shadows, no inter-reflections, no geometric
-// anti-aliasing (edges of primitives are sampled once per pixel centre).
+// table (also stored in 16 x 16 pixel tile order), together with a bounding cone per tile. Per
+// frame, the primitives whose bounding spheres (long primitives are split into several) fall
+// inside a tile's cone are collected and sorted nearest first; they are intersected with the
+// tile's rays 4 at a time (SSE2), in float precision relative to each primitive's centre, and the
+// tile stops as soon as every pixel has a hit nearer than the next candidate can be. Shading:
+// albedo (trilinearly filtered texture, texture.h; texel fetches of a whole tile are addressed
+// and prefetched before they are blended) times the world's lighting, plus emission. No shadows,
+// no inter-reflections, no geometric anti-aliasing (edges of primitives are sampled once per
+// pixel centre).
 //
 // Rendering is const and allocation-free inside the pixel loops; a CameraRenderer can render
-// many frames concurrently from several threads.
+// many frames concurrently from several threads. Output is deterministic (same binary, same
+// input: same bits), independent of threading.
 
 #include <cstdint>
 #include <memory>
@@ -57,8 +61,8 @@ class CameraRenderer {
   // projected, with the camera model, into the cameras at shutter open and close; the blurred
   // value is the mean of `sharp` sampled (bilinearly) along the resulting image-motion segment,
   // i.e. the sub-frame integral for a static scene with motion linear over the shutter. Up to
-  // `max_samples` samples, about one per pixel of motion. Approximate at occlusion boundaries
-  // (the hidden background is not known).
+  // `max_samples` samples, about one per pixel of motion (4 pixels at a time, SSE2).
+  // Approximate at occlusion boundaries (the hidden background is not known).
   void BlurByReprojection(const std::vector<float>& sharp, const std::vector<float>& range,
                           const geometry::SE3& T_world_cam_mid,
                           const geometry::SE3& T_world_cam_open,
@@ -71,8 +75,9 @@ class CameraRenderer {
 };
 
 // Image formation: v = round(clamp(255 * gain * radiance + n, 0, 255)) with n ~ N(0, sigma^2)
-// approximated by a scaled sum of four uniforms (Irwin-Hall), drawn from a counter-based hash of
-// (noise_key, pixel index): deterministic and independent of thread scheduling.
+// approximated by a scaled sum of four uniforms (Irwin-Hall: the four bytes of a 32-bit
+// counter-based hash of (noise_key, pixel index)): deterministic and independent of thread
+// scheduling.
 // Writes a CV_8UC1 image of width x height.
 void FormImage(const std::vector<float>& radiance, int width, int height, double gain,
                double noise_sigma, uint64_t noise_key, cv::Mat* image);

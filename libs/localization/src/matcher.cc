@@ -117,17 +117,30 @@ double ParabolaVertex(double a, double b, double c) {
   return std::clamp(0.5 * (a - c) / denom, -0.5, 0.5);
 }
 
-void RefineOne(const FeatureSet& ref, int ru, int rv, const FeatureSet& tgt, int r, float* u,
-               float* v) {
-  int cu = static_cast<int>(std::lround(*u)), cv = static_cast<int>(std::lround(*v));
+void RefineOne(const FeatureSet& ref, int ru, int rv, const FeatureSet& tgt, int r, bool subpixel,
+               float* u, float* v) {
+  const int u0 = static_cast<int>(std::lround(*u)), v0 = static_cast<int>(std::lround(*v));
+  int cu = u0, cv = v0;
   const int lo = r + 2, hi_u = tgt.width() - r - 3, hi_v = tgt.height() - r - 3;
+  // The centre moves at most twice, so all costs lie within +-3 of the start; each is computed
+  // once (a move re-uses the 6 or 4 costs it shares with the previous 3x3 neighbourhood).
+  int64_t memo[7][7];
+  for (auto& row : memo) std::fill(std::begin(row), std::end(row), int64_t{-1});
+  auto cost_at = [&](int tu, int tv) {
+    int64_t& c = memo[tv - v0 + 3][tu - u0 + 3];
+    if (c < 0) c = WindowSsd(ref, ru, rv, tgt, tu, tv, r);
+    return c;
+  };
   int64_t cost[3][3];
   for (int step = 0; step < 3; ++step) {
     if (cu < lo || cu > hi_u || cv < lo || cv > hi_v) return;  // too close to the border
+    // All nine first: the minimum search must compare against this neighbourhood's centre.
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) cost[j][i] = cost_at(cu + i - 1, cv + j - 1);
+    }
     int bi = 1, bj = 1;
     for (int j = 0; j < 3; ++j) {
       for (int i = 0; i < 3; ++i) {
-        cost[j][i] = WindowSsd(ref, ru, rv, tgt, cu + i - 1, cv + j - 1, r);
         if (cost[j][i] < cost[bj][bi]) {
           bi = i;
           bj = j;
@@ -136,6 +149,11 @@ void RefineOne(const FeatureSet& ref, int ru, int rv, const FeatureSet& tgt, int
     }
     if ((bi == 1 && bj == 1) || step == 2) {
       if (bi != 1 || bj != 1) return;  // no minimum found within two moves: keep as is
+      if (!subpixel) {
+        *u = static_cast<float>(cu);
+        *v = static_cast<float>(cv);
+        return;
+      }
       *u = static_cast<float>(cu + ParabolaVertex(cost[1][0], cost[1][1], cost[1][2]));
       *v = static_cast<float>(cv + ParabolaVertex(cost[0][1], cost[1][1], cost[2][1]));
       return;
@@ -343,9 +361,21 @@ void RefineMatchesSubpixel(const FeatureSet& prev_left, const FeatureSet& prev_r
   const int r = options.refine_half_window_px;
   for (QuadMatch& q : *matches) {
     const int ru = static_cast<int>(q.u_prev_left), rv = static_cast<int>(q.v_prev_left);
-    RefineOne(prev_left, ru, rv, prev_right, r, &q.u_prev_right, &q.v_prev_right);
-    RefineOne(prev_left, ru, rv, cur_left, r, &q.u_cur_left, &q.v_cur_left);
-    RefineOne(prev_left, ru, rv, cur_right, r, &q.u_cur_right, &q.v_cur_right);
+    RefineOne(prev_left, ru, rv, prev_right, r, true, &q.u_prev_right, &q.v_prev_right);
+    RefineOne(prev_left, ru, rv, cur_left, r, true, &q.u_cur_left, &q.v_cur_left);
+    RefineOne(prev_left, ru, rv, cur_right, r, true, &q.u_cur_right, &q.v_cur_right);
+  }
+}
+
+void RefineMatchesPixel(const FeatureSet& prev_left, const FeatureSet& prev_right,
+                        const FeatureSet& cur_left, const FeatureSet& cur_right,
+                        const MatcherOptions& options, std::vector<QuadMatch>* matches) {
+  const int r = options.refine_half_window_px;
+  for (QuadMatch& q : *matches) {
+    const int ru = static_cast<int>(q.u_prev_left), rv = static_cast<int>(q.v_prev_left);
+    RefineOne(prev_left, ru, rv, prev_right, r, false, &q.u_prev_right, &q.v_prev_right);
+    RefineOne(prev_left, ru, rv, cur_left, r, false, &q.u_cur_left, &q.v_cur_left);
+    RefineOne(prev_left, ru, rv, cur_right, r, false, &q.u_cur_right, &q.v_cur_right);
   }
 }
 

@@ -199,6 +199,9 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
     if (opt.mode == SparseVoMode::kSubpixel) {
       RefineMatchesSubpixel(s.prev_left, s.prev_right, s.cur_left, s.cur_right, opt.matcher,
                             &s.matches);
+    } else {
+      RefineMatchesPixel(s.prev_left, s.prev_right, s.cur_left, s.cur_right, opt.matcher,
+                         &s.matches);
     }
     result.num_matches = static_cast<int>(s.matches.size());
     result.timing.matching_ms += MsSince(t0);

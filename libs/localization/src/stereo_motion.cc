@@ -76,6 +76,8 @@ bool StereoMotionOptions::IsValid(std::string* why) const {
   } else if (minimal_iterations < 1 || refinement_iterations < 1) {
     msg << "minimal_iterations/refinement_iterations: must be >= 1, got " << minimal_iterations
         << "/" << refinement_iterations;
+  } else if (structure_iterations < 1) {
+    msg << "structure_iterations: must be >= 1, got " << structure_iterations;
   } else if (min_inliers < 3) {
     msg << "min_inliers: must be >= 3, got " << min_inliers;
   } else {
@@ -110,6 +112,88 @@ bool RefineStereoMotion(const camera::RectifiedStereo& rig,
     if (!delta.allFinite()) return false;
     T = geometry::SE3::Exp(delta) * T;
     if (delta.norm() < 1e-10) break;
+  }
+  if (!IsFinite(T)) return false;
+  *T_cur_prev = T;
+  return true;
+}
+
+bool RefineStereoMotionAndStructure(const camera::RectifiedStereo& rig,
+                                    const std::vector<Eigen::Vector3d>& points_prev,
+                                    const std::vector<StereoObservation>& observations,
+                                    const std::vector<int>& indices, int max_iterations,
+                                    geometry::SE3* T_cur_prev) {
+  const double fx = rig.fx, fy = rig.fy, cx = rig.cx, cy = rig.cy, b = rig.baseline;
+  // Per point: the previous observation (u0, v0, d0) (projection of points_prev) and the
+  // current estimate q = (u, v, d).
+  struct PointState {
+    int index;
+    Eigen::Vector3d q0, q;
+  };
+  std::vector<PointState> pts;
+  pts.reserve(indices.size());
+  for (int i : indices) {
+    const Eigen::Vector3d& p = points_prev[i];
+    if (!(p.z() > 1e-3)) continue;
+    const Eigen::Vector3d q(fx * p.x() / p.z() + cx, fy * p.y() / p.z() + cy, fx * b / p.z());
+    pts.push_back({i, q, q});
+  }
+  if (pts.size() < 3) return false;
+  auto point_of = [&](const Eigen::Vector3d& q) {
+    const double z = fx * b / q.z();
+    return Eigen::Vector3d((q.x() - cx) / fx * z, (q.y() - cy) / fy * z, z);
+  };
+  // Residuals in the previous pair are linear in q: (u - u0, v - v0, (u - d) - (u0 - d0), v - v0).
+  Eigen::Matrix<double, 4, 3> Jprev;
+  Jprev << 1, 0, 0, 0, 1, 0, 1, 0, -1, 0, 1, 0;
+  const Eigen::Matrix3d JprevTJprev = Jprev.transpose() * Jprev;
+
+  geometry::SE3 T = *T_cur_prev;
+  std::vector<Eigen::Matrix3d> c_inv(pts.size());
+  std::vector<Eigen::Matrix<double, 6, 3>> bmat(pts.size());
+  std::vector<Eigen::Vector3d> gq(pts.size());
+  std::vector<char> used(pts.size());
+  Eigen::Vector4d r;
+  Matrix46d J;
+  for (int it = 0; it < max_iterations; ++it) {
+    Matrix6d S = Matrix6d::Zero();
+    Vector6d s = Vector6d::Zero();
+    const Eigen::Matrix3d R = T.RotationMatrix();
+    int n_used = 0;
+    for (size_t k = 0; k < pts.size(); ++k) {
+      PointState& ps = pts[k];
+      used[k] = 0;
+      if (!(ps.q.z() > 1e-3)) continue;
+      const Eigen::Vector3d P = point_of(ps.q);
+      if (!StereoReprojectionResidual(rig, T, P, observations[ps.index], &r, &J)) continue;
+      Eigen::Matrix3d dP_dq;
+      dP_dq << P.z() / fx, 0, -P.x() / ps.q.z(),  //
+          0, P.z() / fy, -P.y() / ps.q.z(),       //
+          0, 0, -P.z() / ps.q.z();
+      const Eigen::Matrix<double, 4, 3> Jq = J.leftCols<3>() * R * dP_dq;
+      const Eigen::Vector3d d = ps.q - ps.q0;
+      const Eigen::Vector4d r_prev(d.x(), d.y(), d.x() - d.z(), d.y());
+      const Eigen::Matrix3d C = JprevTJprev + Jq.transpose() * Jq;
+      const Eigen::Matrix3d Ci = C.inverse();
+      if (!Ci.allFinite()) continue;
+      c_inv[k] = Ci;
+      bmat[k] = J.transpose() * Jq;
+      gq[k] = Jprev.transpose() * r_prev + Jq.transpose() * r;
+      S.noalias() += J.transpose() * J - bmat[k] * Ci * bmat[k].transpose();
+      s.noalias() += J.transpose() * r - bmat[k] * (Ci * gq[k]);
+      used[k] = 1;
+      ++n_used;
+    }
+    if (n_used < 3) return false;
+    const Eigen::LDLT<Matrix6d> ldlt(S);
+    if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12)) return false;
+    const Vector6d delta = -ldlt.solve(s);
+    if (!delta.allFinite()) return false;
+    for (size_t k = 0; k < pts.size(); ++k) {
+      if (used[k]) pts[k].q -= c_inv[k] * (gq[k] + bmat[k].transpose() * delta);
+    }
+    T = geometry::SE3::Exp(delta) * T;
+    if (delta.norm() < 1e-9) break;
   }
   if (!IsFinite(T)) return false;
   *T_cur_prev = T;
@@ -184,6 +268,13 @@ StereoMotionEstimate EstimateStereoMotion(const camera::RectifiedStereo& rig,
     if (inliers.size() < best_inliers.size() * 9 / 10) break;  // refinement drifted; keep T
     T = refined;
     best_inliers.swap(inliers);
+  }
+  if (options.refine_structure && static_cast<int>(best_inliers.size()) >= options.min_inliers) {
+    geometry::SE3 joint = T;
+    if (RefineStereoMotionAndStructure(rig, points_prev, observations, best_inliers,
+                                       options.structure_iterations, &joint)) {
+      T = joint;
+    }
   }
   if (static_cast<int>(best_inliers.size()) < options.min_inliers || !IsFinite(T)) {
     est.failure = "RANSAC failed: refinement left " + std::to_string(best_inliers.size()) +

@@ -114,9 +114,10 @@ TEST_P(SimSequenceTest, RoomEasyRelativeError) {
       static_cast<double>(inliers) / run.left.size(), ms[ms.size() / 2]);
   EXPECT_EQ(lost, 0);
   EXPECT_GT(segments, 0);
-  // Measured 1.09 % (subpixel) and 4.39 % (pixel) when written; bounds leave room for renderer
+  // Measured 1.09 % (subpixel) and 4.39 % (pixel) when written; 1.39 % and 1.55 % since pixel
+  // refinement and the joint motion + structure refinement. Bounds leave room for renderer
   // changes, not for regressions of the method.
-  EXPECT_LT(err, GetParam() == SparseVoMode::kSubpixel ? 2.0 : 6.0);
+  EXPECT_LT(err, GetParam() == SparseVoMode::kSubpixel ? 2.0 : 3.0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Modes, SimSequenceTest,

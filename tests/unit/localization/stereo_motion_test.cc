@@ -209,3 +209,84 @@ TEST(StereoMotionTest, OptionsValidationNamesTheField) {
 
 }  // namespace
 }  // namespace mav::localization
+
+namespace mav::localization {
+namespace {
+
+// Noisy matches of points in a shallow depth range (2.5 .. 4 m, a room's wall) under sideways
+// motion with a little yaw: previous pixels and disparity and current pixels each get Gaussian
+// noise of `sigma` px. Returns the mean, over seeds, of the estimated translation projected on
+// the true one (1 = unbiased) for motion-only and joint (motion + structure) refinement.
+void ScaleOfNoisyEstimates(double sigma, int seeds, double* motion_only, double* joint,
+                           double* joint_exact_error) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  Vector6d xi;
+  xi << 0.04, 0.005, 0.01, 0.0, 0.01, 0.0;
+  const SE3 T_true = SE3::Exp(xi);
+  const Eigen::Vector3d t_prev_cur = T_true.Inverse().Translation();
+  double sum_motion = 0, sum_joint = 0;
+  *joint_exact_error = 0;
+  for (int seed = 0; seed < seeds; ++seed) {
+    std::mt19937_64 rng(1000 + seed);
+    std::uniform_real_distribution<double> u(40, rig.width - 40), v(40, rig.height - 40),
+        z(2.5, 4.0);
+    std::normal_distribution<double> noise(0.0, sigma);
+    std::vector<Eigen::Vector3d> exact_points, points;
+    std::vector<StereoObservation> exact_obs, obs;
+    while (points.size() < 400) {
+      const Eigen::Vector3d p = rig.Unproject({u(rng), v(rng)}, z(rng));
+      const auto l = rig.ProjectLeft(T_true * p), r = rig.ProjectRight(T_true * p);
+      if (!l || !r || l->x() < 0 || l->x() >= rig.width || r->x() < 0) continue;
+      const auto pl = rig.ProjectLeft(p);
+      const double d = rig.DisparityFromDepth(p.z()) + noise(rng) - noise(rng);
+      exact_points.push_back(p);
+      exact_obs.emplace_back(l->x(), l->y(), r->x(), r->y());
+      points.push_back(
+          rig.Unproject({pl->x() + noise(rng), pl->y() + noise(rng)}, rig.DepthFromDisparity(d)));
+      obs.emplace_back(l->x() + noise(rng), l->y() + noise(rng), r->x() + noise(rng),
+                       r->y() + noise(rng));
+    }
+    std::vector<int> all(points.size());
+    for (size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+    SE3 T_motion;
+    ASSERT_TRUE(RefineStereoMotion(rig, points, obs, all, 30, &T_motion));
+    SE3 T_joint = T_motion;
+    ASSERT_TRUE(RefineStereoMotionAndStructure(rig, points, obs, all, 10, &T_joint));
+    sum_motion += T_motion.Inverse().Translation().dot(t_prev_cur) / t_prev_cur.squaredNorm();
+    sum_joint += T_joint.Inverse().Translation().dot(t_prev_cur) / t_prev_cur.squaredNorm();
+    SE3 T_exact;
+    ASSERT_TRUE(RefineStereoMotionAndStructure(rig, exact_points, exact_obs, all, 10, &T_exact));
+    *joint_exact_error =
+        std::max(*joint_exact_error, (T_exact.Translation() - T_true.Translation()).norm() +
+                                         RotationErrorDeg(T_exact, T_true));
+  }
+  *motion_only = sum_motion / seeds;
+  *joint = sum_joint / seeds;
+}
+
+TEST(StereoMotionTest, JointRefinementIsExactWithoutNoiseAndStaysCloseWithNoise) {
+  double motion_only = 0, joint = 0, exact_error = 0;
+  ScaleOfNoisyEstimates(0.3, 40, &motion_only, &joint, &exact_error);
+  std::printf(
+      "translation scale with 0.3 px noise (shallow scene, sideways motion): motion-only "
+      "%.4f, joint %.4f\n",
+      motion_only, joint);
+  EXPECT_LT(exact_error, 1e-6);  // noise-free: exact (metres + degrees)
+  // Not unbiased in general (both estimators carry an O(sigma^2) scale bias; on this shallow
+  // synthetic scene the joint one is the larger, measured 1.014 vs 1.005); on the simulator's
+  // sequences the joint one is the smaller (docs/localization.md).
+  EXPECT_NEAR(joint, 1.0, 0.03);
+}
+
+TEST(StereoMotionTest, JointRefinementNeedsThreePoints) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  std::vector<Eigen::Vector3d> points = {{0, 0, 2}, {0.5, 0, 3}};
+  std::vector<StereoObservation> obs(2, StereoObservation(300, 200, 280, 200));
+  SE3 T = SE3::Exp((Vector6d() << 0.1, 0, 0, 0, 0, 0).finished());
+  const SE3 before = T;
+  EXPECT_FALSE(RefineStereoMotionAndStructure(rig, points, obs, {0, 1}, 5, &T));
+  EXPECT_EQ(T.Translation(), before.Translation());
+}
+
+}  // namespace
+}  // namespace mav::localization

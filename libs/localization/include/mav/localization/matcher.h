@@ -96,4 +96,13 @@ void RefineMatchesSubpixel(const FeatureSet& prev_left, const FeatureSet& prev_r
                            const FeatureSet& cur_left, const FeatureSet& cur_right,
                            const MatcherOptions& options, std::vector<QuadMatch>* matches);
 
+// Pixel refinement (the StereoScan / libviso2 "pixel" mode): as RefineMatchesSubpixel without
+// the parabola, i.e. each of the three other positions moves to the integer position of minimal
+// SSD against the previous-left reference (searched on the 3x3 neighbourhood, at most two
+// moves). Positions stay integers, but they are placed relative to the reference rather than
+// where each image's own detector happened to peak.
+void RefineMatchesPixel(const FeatureSet& prev_left, const FeatureSet& prev_right,
+                        const FeatureSet& cur_left, const FeatureSet& cur_right,
+                        const MatcherOptions& options, std::vector<QuadMatch>* matches);
+
 }  // namespace mav::localization

@@ -6,10 +6,11 @@
 //   1. features: blob/corner 5x5 filter responses, non-maximum suppression, Sobel descriptors
 //      (features.h) in both images;
 //   2. circular matching previous left -> previous right -> current right -> current left ->
-//      previous left, bucketing, and in `subpixel` mode sub-pixel refinement (matcher.h);
+//      previous left, bucketing, then refinement against the previous-left feature: to the best
+//      integer position (`pixel`) or sub-pixel (`subpixel`) (matcher.h);
 //   3. motion: points triangulated from the previous pair, RANSAC over 3-point sets with
 //      Gauss-Newton on the reprojection error in both current images, final refinement on all
-//      inliers (stereo_motion.h).
+//      inliers, then jointly with the inliers' points (stereo_motion.h).
 // The pose is chained: T_world_cur = T_world_prev * T_prev_cur.
 //
 // Tracking: when a frame cannot be estimated (too few features, matches or inliers; implausible
@@ -37,8 +38,10 @@ class Mat;
 
 namespace mav::localization {
 
-// The two modes of the paper (Holzmann et al. 2015, Table 1): matches at integer feature
-// positions, or refined to sub-pixel accuracy.
+// The two modes of the paper (Holzmann et al. 2015, Table 1), libviso2's "pixel" and "subpixel"
+// refinement: matches at integer positions (each moved to the integer position that best aligns
+// it with the previous-left feature, RefineMatchesPixel), or refined to sub-pixel accuracy
+// (RefineMatchesSubpixel).
 enum class SparseVoMode { kPixel, kSubpixel };
 const char* SparseVoModeName(SparseVoMode mode);  // "pixel", "subpixel"
 
@@ -47,10 +50,11 @@ struct SparseVoOptions {
   FeatureOptions features;
   MatcherOptions matcher;
   // motion.inlier_threshold_px is replaced by the threshold of the mode: integer positions
-  // carry up to +-0.5 px quantisation per coordinate, so pixel mode needs a wider gate, while
-  // sub-pixel mode gains accuracy from a tight one.
+  // carry up to +-0.5 px quantisation per coordinate (a 4-vector residual of up to ~1.4 px), so
+  // pixel mode needs a wider gate, while sub-pixel mode gains accuracy from a tight one. A gate
+  // much above the quantisation (2 px) admits near-miss matches that bias the motion short.
   StereoMotionOptions motion;
-  double pixel_inlier_threshold_px = 2.0;
+  double pixel_inlier_threshold_px = 1.5;
   double subpixel_inlier_threshold_px = 1.0;
   // A frame with fewer circular matches (after bucketing) than this is LOST.
   int min_matches = 12;

@@ -25,6 +25,7 @@
 #include "mav/v1/simulator.grpc.pb.h"
 
 #include "clients/mavctl/listen.h"
+#include "clients/mavctl/localization_commands.h"
 #include "mav/common/parse.h"
 #include "mav/common/time.h"
 #include "mav/transport/dds.h"
@@ -50,6 +51,8 @@ constexpr char kUsage[] =
     "  sim occupancy --out FILE [--resolution M] [--format bt|mavocc]\n"
     "  health [--port P] [--service NAME]\n"
     "  listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]\n"
+    "  loc configure --method sparse-pixel|sparse-subpixel|dense [--euroc DIR | --simulator ADDR]\n"
+    "  loc reset | loc status | loc trajectory --out FILE.tum   (port 50052)\n"
     "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
     "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
 
@@ -446,6 +449,7 @@ int main(int argc, char** argv) {
   if (command == "sim") return SimCommand(args);
   if (command == "health") return HealthCommand(args);
   if (command == "listen") return ListenCommand(args);
+  if (command == "loc") return mav::mavctl::LocalizationCommand(args);
   std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }

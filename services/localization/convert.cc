@@ -1,0 +1,447 @@
+#include "services/localization/convert.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <tuple>
+
+namespace mav::localization_service {
+
+namespace {
+
+std::string Number(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+// An unsigned option: 0 keeps `*target`, otherwise it must lie in [lo, hi].
+Status UintOption(uint32_t value, uint32_t lo, uint32_t hi, const std::string& field, int* target) {
+  if (value == 0) return Status::Ok();
+  if (value < lo || value > hi) {
+    return Status::InvalidArgument(field + ": must be in [" + std::to_string(lo) + ", " +
+                                   std::to_string(hi) + "], got " + std::to_string(value));
+  }
+  *target = static_cast<int>(value);
+  return Status::Ok();
+}
+
+// A double option: 0 keeps `*target`, otherwise it must be finite and in (0, hi].
+Status PositiveOption(double value, double hi, const std::string& field, double* target) {
+  if (value == 0.0) return Status::Ok();
+  if (!std::isfinite(value) || value <= 0.0 || value > hi) {
+    return Status::InvalidArgument(field + ": must be > 0" +
+                                   (std::isfinite(hi) ? " and <= " + Number(hi) : "") + ", got " +
+                                   Number(value));
+  }
+  *target = value;
+  return Status::Ok();
+}
+
+Status SparseFromProto(const v1::SparseVoOptions& in, Method method,
+                       localization::SparseVoOptions* out) {
+  out->features.half_resolution = in.half_resolution();
+  MAV_RETURN_IF_ERROR(
+      UintOption(in.nms_radius_px(), 1, 10, "sparse.nms_radius_px", &out->features.nms_radius));
+  MAV_RETURN_IF_ERROR(UintOption(in.match_radius_px(), 10, 500, "sparse.match_radius_px",
+                                 &out->matcher.search_radius_px));
+  if (in.match_radius_px() != 0) {
+    // Without a motion prior the window must be at least as wide as with one.
+    out->matcher.search_radius_no_prior_px =
+        std::max(out->matcher.search_radius_no_prior_px, out->matcher.search_radius_px);
+  }
+  MAV_RETURN_IF_ERROR(UintOption(in.bucket_width_px(), 10, 400, "sparse.bucket_width_px",
+                                 &out->matcher.bucket_width_px));
+  MAV_RETURN_IF_ERROR(UintOption(in.bucket_height_px(), 10, 400, "sparse.bucket_height_px",
+                                 &out->matcher.bucket_height_px));
+  MAV_RETURN_IF_ERROR(UintOption(in.max_features_per_bucket(), 1, 100,
+                                 "sparse.max_features_per_bucket",
+                                 &out->matcher.bucket_max_matches));
+  MAV_RETURN_IF_ERROR(UintOption(in.ransac_iterations(), 10, 10000, "sparse.ransac_iterations",
+                                 &out->motion.ransac_iterations));
+  MAV_RETURN_IF_ERROR(
+      UintOption(in.min_inliers(), 3, 1000, "sparse.min_inliers", &out->motion.min_inliers));
+  double* threshold = method == Method::kSparsePixel ? &out->pixel_inlier_threshold_px
+                                                     : &out->subpixel_inlier_threshold_px;
+  MAV_RETURN_IF_ERROR(
+      PositiveOption(in.inlier_threshold_px(), 20.0, "sparse.inlier_threshold_px", threshold));
+  out->mode = method == Method::kSparsePixel ? localization::SparseVoMode::kPixel
+                                             : localization::SparseVoMode::kSubpixel;
+  std::string why;
+  if (!out->IsValid(&why)) return Status::InvalidArgument("sparse: " + why);
+  return Status::Ok();
+}
+
+Status DenseFromProto(const v1::DenseVoOptions& in, localization::DenseVoOptions* out) {
+  MAV_RETURN_IF_ERROR(
+      UintOption(in.pyramid_levels(), 1, 6, "dense.pyramid_levels", &out->num_levels));
+  MAV_RETURN_IF_ERROR(UintOption(in.max_iterations_per_level(), 1, 100,
+                                 "dense.max_iterations_per_level", &out->max_iterations_per_level));
+  if (in.block_size() != 0 && in.block_size() % 2 == 0) {
+    return Status::InvalidArgument("dense.block_size: must be odd, got " +
+                                   std::to_string(in.block_size()));
+  }
+  MAV_RETURN_IF_ERROR(UintOption(in.block_size(), 5, 31, "dense.block_size", &out->block_size));
+  if (in.num_disparities() % 16 != 0) {
+    return Status::InvalidArgument("dense.num_disparities: must be a multiple of 16, got " +
+                                   std::to_string(in.num_disparities()));
+  }
+  MAV_RETURN_IF_ERROR(
+      UintOption(in.num_disparities(), 16, 256, "dense.num_disparities", &out->num_disparities));
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  MAV_RETURN_IF_ERROR(PositiveOption(in.keyframe_photometric_error(), kInf,
+                                     "dense.keyframe_photometric_error",
+                                     &out->keyframe_max_rms_error));
+  MAV_RETURN_IF_ERROR(PositiveOption(in.keyframe_rotation_deg(), 180.0,
+                                     "dense.keyframe_rotation_deg",
+                                     &out->keyframe_max_rotation_deg));
+  MAV_RETURN_IF_ERROR(PositiveOption(in.keyframe_translation_m(), kInf,
+                                     "dense.keyframe_translation_m",
+                                     &out->keyframe_max_translation_m));
+  if (in.huber_delta() != 0.0) {
+    MAV_RETURN_IF_ERROR(PositiveOption(in.huber_delta(), kInf, "dense.huber_delta", &out->huber_k));
+    out->loss = localization::DenseRobustLoss::kHuber;
+  }
+  // The pyramid must fit the finest tracked level and the depth level.
+  out->finest_level = std::min(out->finest_level, out->num_levels - 1);
+  out->depth_level = std::min(out->depth_level, out->num_levels - 1);
+  std::string why;
+  if (!out->IsValid(&why)) return Status::InvalidArgument("dense: " + why);
+  return Status::Ok();
+}
+
+Result<camera::PinholeRadTan> CameraFromProto(const v1::CameraCalibration& camera,
+                                              const std::string& field) {
+  if (!camera.has_intrinsics()) return Status::InvalidArgument(field + ".intrinsics: not set");
+  const v1::CameraIntrinsics& k = camera.intrinsics();
+  camera::PinholeRadTan out;
+  out.width = static_cast<int>(k.width());
+  out.height = static_cast<int>(k.height());
+  out.fx = k.fx();
+  out.fy = k.fy();
+  out.cx = k.cx();
+  out.cy = k.cy();
+  out.k1 = k.k1();
+  out.k2 = k.k2();
+  out.p1 = k.p1();
+  out.p2 = k.p2();
+  if (k.width() == 0 || k.height() == 0 || k.width() > 65536 || k.height() > 65536) {
+    return Status::InvalidArgument(field + ".intrinsics.width: image size " +
+                                   std::to_string(k.width()) + "x" + std::to_string(k.height()) +
+                                   " is not in [1, 65536]");
+  }
+  if (!(k.fx() > 0) || !(k.fy() > 0) || !std::isfinite(k.fx()) || !std::isfinite(k.fy())) {
+    return Status::InvalidArgument(field +
+                                   ".intrinsics.fx: focal lengths must be > 0 and finite, "
+                                   "got fx=" +
+                                   Number(k.fx()) + " fy=" + Number(k.fy()));
+  }
+  std::string why;
+  if (!out.IsValid(&why)) return Status::InvalidArgument(field + ".intrinsics: " + why);
+  return out;
+}
+
+}  // namespace
+
+Result<Method> MethodFromProto(v1::LocalizationMethod method) {
+  switch (method) {
+    case v1::LOCALIZATION_METHOD_SPARSE_PIXEL:
+      return Method::kSparsePixel;
+    case v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL:
+      return Method::kSparseSubpixel;
+    case v1::LOCALIZATION_METHOD_DENSE:
+      return Method::kDense;
+    case v1::LOCALIZATION_METHOD_UNSPECIFIED:
+      return Status::InvalidArgument(
+          "method: not set (LOCALIZATION_METHOD_UNSPECIFIED); use SPARSE_PIXEL, SPARSE_SUBPIXEL "
+          "or DENSE");
+    default:
+      break;
+  }
+  return Status::InvalidArgument("method: unknown value " +
+                                 std::to_string(static_cast<int>(method)) +
+                                 " (known: SPARSE_PIXEL=1, SPARSE_SUBPIXEL=2, DENSE=3)");
+}
+
+v1::LocalizationMethod ToProto(Method method) {
+  switch (method) {
+    case Method::kSparsePixel:
+      return v1::LOCALIZATION_METHOD_SPARSE_PIXEL;
+    case Method::kSparseSubpixel:
+      return v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL;
+    case Method::kDense:
+      return v1::LOCALIZATION_METHOD_DENSE;
+  }
+  return v1::LOCALIZATION_METHOD_UNSPECIFIED;
+}
+
+Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& request) {
+  LocalizerConfig config;
+  MAV_ASSIGN_OR_RETURN(config.method, MethodFromProto(request.method()));
+  if (config.method == Method::kDense) {
+    MAV_RETURN_IF_ERROR(DenseFromProto(request.dense(), &config.dense));
+  } else {
+    MAV_RETURN_IF_ERROR(SparseFromProto(request.sparse(), config.method, &config.sparse));
+  }
+  if (request.has_initial_pose()) {
+    MAV_ASSIGN_OR_RETURN(config.T_world_body0,
+                         PoseFromProto(request.initial_pose(), "initial_pose"));
+  }
+  const std::string& frame = request.output_frame();
+  if (frame.empty() || frame == "body") {
+    config.output_frame = OutputFrame::kBody;
+  } else if (frame == "cam0") {
+    config.output_frame = OutputFrame::kCam0;
+  } else {
+    return Status::InvalidArgument("output_frame: '" + frame + "' is not body or cam0");
+  }
+  if (request.queue_length() > 100) {
+    return Status::InvalidArgument("queue_length: must be <= 100, got " +
+                                   std::to_string(request.queue_length()));
+  }
+  config.queue_length = request.queue_length() == 0 ? 2 : static_cast<int>(request.queue_length());
+  return config;
+}
+
+Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
+                                            const std::string& field) {
+  if (!proto.has_left()) return Status::InvalidArgument(field + ".left: not set");
+  if (!proto.has_right()) return Status::InvalidArgument(field + ".right: not set");
+  RigCalibration out;
+  out.rectified = proto.rectified();
+  MAV_ASSIGN_OR_RETURN(out.calibration.cam0, CameraFromProto(proto.left(), field + ".left"));
+  MAV_ASSIGN_OR_RETURN(out.calibration.cam1, CameraFromProto(proto.right(), field + ".right"));
+  if (!proto.left().has_t_body_cam()) {
+    return Status::InvalidArgument(field + ".left.t_body_cam: not set");
+  }
+  if (!proto.right().has_t_body_cam()) {
+    return Status::InvalidArgument(field + ".right.t_body_cam: not set");
+  }
+  MAV_ASSIGN_OR_RETURN(out.calibration.T_body_cam0,
+                       PoseFromProto(proto.left().t_body_cam(), field + ".left.t_body_cam"));
+  MAV_ASSIGN_OR_RETURN(out.calibration.T_body_cam1,
+                       PoseFromProto(proto.right().t_body_cam(), field + ".right.t_body_cam"));
+  if (out.calibration.cam0.width != out.calibration.cam1.width ||
+      out.calibration.cam0.height != out.calibration.cam1.height) {
+    return Status::InvalidArgument(field +
+                                   ".right.intrinsics.width: the right image size differs "
+                                   "from the left one");
+  }
+  if (out.rectified &&
+      (out.calibration.cam0.HasDistortion() || out.calibration.cam1.HasDistortion())) {
+    return Status::InvalidArgument(field + ".rectified: true but the cameras have distortion");
+  }
+  std::string why;
+  if (!out.calibration.IsValid(&why)) return Status::InvalidArgument(field + ": " + why);
+  return out;
+}
+
+Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& field) {
+  const v1::Vector3& p = pose.position();
+  if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) {
+    return Status::InvalidArgument(field + ".position: not finite");
+  }
+  const v1::Quaternion& q = pose.orientation();
+  const double norm = std::sqrt(q.w() * q.w() + q.x() * q.x() + q.y() * q.y() + q.z() * q.z());
+  if (!std::isfinite(norm) || std::abs(norm - 1.0) > 1e-3) {
+    return Status::InvalidArgument(field + ".orientation: norm " + Number(norm) +
+                                   ", expected a unit quaternion (w first)");
+  }
+  const Eigen::Quaterniond rotation(q.w() / norm, q.x() / norm, q.y() / norm, q.z() / norm);
+  return geometry::SE3(rotation, Eigen::Vector3d(p.x(), p.y(), p.z()));
+}
+
+Result<StereoInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
+  StereoInput out;
+  out.t_ns = pair.t_ns();
+  out.rectified = pair.rectified();
+  for (const auto& [name, image, mat] :
+       {std::tuple<const char*, const v1::Image*, cv::Mat*>{"left", &pair.left(), &out.left},
+        std::tuple<const char*, const v1::Image*, cv::Mat*>{"right", &pair.right(), &out.right}}) {
+    const std::string f = field + "." + name;
+    if (image->width() == 0 || image->height() == 0) {
+      return Status::InvalidArgument(f + ": empty image (" + std::to_string(image->width()) + "x" +
+                                     std::to_string(image->height()) + ")");
+    }
+    if (image->width() > 65536 || image->height() > 65536) {
+      return Status::InvalidArgument(f + ": " + std::to_string(image->width()) + "x" +
+                                     std::to_string(image->height()) + " is too large");
+    }
+    if (image->encoding() != v1::IMAGE_ENCODING_MONO8) {
+      return Status::InvalidArgument(f + ".encoding: must be IMAGE_ENCODING_MONO8, got " +
+                                     std::to_string(static_cast<int>(image->encoding())));
+    }
+    const uint64_t expected = static_cast<uint64_t>(image->width()) * image->height();
+    if (image->data().size() != expected) {
+      return Status::InvalidArgument(f + ".data: " + std::to_string(image->data().size()) +
+                                     " bytes, expected width*height = " + std::to_string(expected));
+    }
+    *mat = cv::Mat(static_cast<int>(image->height()), static_cast<int>(image->width()), CV_8UC1);
+    std::memcpy(mat->data, image->data().data(), expected);
+  }
+  if (out.left.size() != out.right.size()) {
+    return Status::InvalidArgument(field + ".right: " + std::to_string(out.right.cols) + "x" +
+                                   std::to_string(out.right.rows) + ", differs from the left " +
+                                   std::to_string(out.left.cols) + "x" +
+                                   std::to_string(out.left.rows));
+  }
+  return out;
+}
+
+void ToProto(const geometry::SE3& pose, v1::Pose* out) {
+  const Eigen::Vector3d& t = pose.Translation();
+  out->mutable_position()->set_x(t.x());
+  out->mutable_position()->set_y(t.y());
+  out->mutable_position()->set_z(t.z());
+  const Eigen::Quaterniond& q = pose.Rotation();
+  out->mutable_orientation()->set_w(q.w());
+  out->mutable_orientation()->set_x(q.x());
+  out->mutable_orientation()->set_y(q.y());
+  out->mutable_orientation()->set_z(q.z());
+}
+
+void ToProto(const PoseOutput& pose, v1::PoseWithCovariance* out) {
+  out->set_t_ns(pose.t_ns);
+  ToProto(pose.T_world_out, out->mutable_pose());
+  out->clear_covariance();
+  for (double c : pose.covariance) out->add_covariance(c);
+}
+
+v1::TrackingState ToProto(ReportedState state) {
+  return static_cast<v1::TrackingState>(static_cast<int>(state));
+}
+
+v1::LocalizationServiceState ToProto(LocalizerState state) {
+  switch (state) {
+    case LocalizerState::kUnconfigured:
+      return v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED;
+    case LocalizerState::kReady:
+      return v1::LOCALIZATION_SERVICE_STATE_READY;
+    case LocalizerState::kRunning:
+      return v1::LOCALIZATION_SERVICE_STATE_RUNNING;
+  }
+  return v1::LOCALIZATION_SERVICE_STATE_UNSPECIFIED;
+}
+
+void ToProto(const PoseOutput& pose, v1::ProcessStereoPairResponse* out) {
+  ToProto(pose, out->mutable_pose());
+  out->set_tracking_state(ToProto(pose.state));
+  out->set_lost_reason(pose.lost_reason);
+  out->set_matches(pose.matches);
+  out->set_inliers(pose.inliers);
+  out->set_residual(pose.residual);
+  out->set_keyframe(pose.keyframe);
+  out->set_frame_index(pose.frame_index);
+  v1::LocalizationTiming* timing = out->mutable_timing();
+  timing->set_total_ms(pose.timing.total_ms);
+  timing->set_rectify_ms(pose.timing.rectify_ms);
+  timing->set_features_ms(pose.timing.features_ms);
+  timing->set_matching_ms(pose.timing.matching_ms);
+  timing->set_motion_ms(pose.timing.motion_ms);
+  ToProto(pose.T_prev_cur, out->mutable_delta());
+}
+
+void ToProto(const PoseOutput& pose, v1::TrajectoryPoint* out) {
+  ToProto(pose, out->mutable_pose());
+  out->set_tracking_state(ToProto(pose.state));
+  out->set_keyframe(pose.keyframe);
+}
+
+void ToProto(const RuntimeSummary& stats, v1::RuntimeStats* out) {
+  out->set_count(stats.count);
+  out->set_mean_ms(stats.mean_ms);
+  out->set_median_ms(stats.median_ms);
+  out->set_p95_ms(stats.p95_ms);
+  out->set_max_ms(stats.max_ms);
+}
+
+namespace {
+
+void ToProto(const camera::PinholeRadTan& camera, v1::CameraIntrinsics* out) {
+  out->set_width(static_cast<uint32_t>(camera.width));
+  out->set_height(static_cast<uint32_t>(camera.height));
+  out->set_fx(camera.fx);
+  out->set_fy(camera.fy);
+  out->set_cx(camera.cx);
+  out->set_cy(camera.cy);
+  out->set_k1(camera.k1);
+  out->set_k2(camera.k2);
+  out->set_p1(camera.p1);
+  out->set_p2(camera.p2);
+}
+
+}  // namespace
+
+void ToProto(const camera::StereoCalibration& calibration, bool rectified,
+             v1::StereoCalibration* out) {
+  out->mutable_left()->set_camera_id("cam0");
+  ToProto(calibration.cam0, out->mutable_left()->mutable_intrinsics());
+  ToProto(calibration.T_body_cam0, out->mutable_left()->mutable_t_body_cam());
+  out->mutable_right()->set_camera_id("cam1");
+  ToProto(calibration.cam1, out->mutable_right()->mutable_intrinsics());
+  ToProto(calibration.T_body_cam1, out->mutable_right()->mutable_t_body_cam());
+  out->set_rectified(rectified);
+  out->set_baseline_m(calibration.Baseline());
+}
+
+void ToProto(const LocalizerConfig& config, v1::LocalizationConfigureRequest* out) {
+  out->set_method(ToProto(config.method));
+  if (config.method == Method::kDense) {
+    const localization::DenseVoOptions& d = config.dense;
+    v1::DenseVoOptions* o = out->mutable_dense();
+    o->set_pyramid_levels(static_cast<uint32_t>(d.num_levels));
+    o->set_max_iterations_per_level(static_cast<uint32_t>(d.max_iterations_per_level));
+    o->set_block_size(static_cast<uint32_t>(d.block_size));
+    o->set_num_disparities(static_cast<uint32_t>(d.num_disparities));
+    o->set_keyframe_photometric_error(d.keyframe_max_rms_error);
+    o->set_keyframe_rotation_deg(d.keyframe_max_rotation_deg);
+    o->set_keyframe_translation_m(d.keyframe_max_translation_m);
+    o->set_huber_delta(d.loss == localization::DenseRobustLoss::kHuber ? d.huber_k : 0.0);
+  } else {
+    const localization::SparseVoOptions& s = config.sparse;
+    v1::SparseVoOptions* o = out->mutable_sparse();
+    o->set_half_resolution(s.features.half_resolution);
+    o->set_nms_radius_px(static_cast<uint32_t>(s.features.nms_radius));
+    o->set_match_radius_px(static_cast<uint32_t>(s.matcher.search_radius_px));
+    o->set_bucket_width_px(static_cast<uint32_t>(s.matcher.bucket_width_px));
+    o->set_bucket_height_px(static_cast<uint32_t>(s.matcher.bucket_height_px));
+    o->set_max_features_per_bucket(static_cast<uint32_t>(s.matcher.bucket_max_matches));
+    o->set_ransac_iterations(static_cast<uint32_t>(s.motion.ransac_iterations));
+    o->set_inlier_threshold_px(config.method == Method::kSparsePixel
+                                   ? s.pixel_inlier_threshold_px
+                                   : s.subpixel_inlier_threshold_px);
+    o->set_min_inliers(static_cast<uint32_t>(s.motion.min_inliers));
+  }
+  ToProto(config.calibration, config.calibration_rectified,
+          out->mutable_calibration()->mutable_calibration());
+  ToProto(config.T_world_body0, out->mutable_initial_pose());
+  out->set_output_frame(OutputFrameName(config.output_frame));
+  out->set_queue_length(static_cast<uint32_t>(config.queue_length));
+}
+
+void ToProto(const LocalizerStatus& status, bool dds_input, v1::LocalizationStatus* out) {
+  out->set_state(ToProto(status.state));
+  if (status.config.has_value()) {
+    out->set_method(ToProto(status.config->method));
+    ToProto(*status.config, out->mutable_config());
+    out->mutable_config()->set_disable_dds_input(!dds_input);
+  }
+  out->set_frames_processed(status.frames_processed);
+  out->set_frames_dropped(status.frames_dropped);
+  out->set_frames_lost(status.frames_lost);
+  out->set_frames_rejected(status.frames_rejected);
+  out->set_fps(status.fps);
+  if (status.last.has_value()) {
+    out->set_tracking_state(ToProto(status.last->state));
+    out->set_lost_reason(status.last->lost_reason);
+    ToProto(*status.last, out->mutable_last_pose());
+  }
+  ToProto(status.processing_ms, out->mutable_processing_ms());
+  out->set_keyframes(status.keyframes);
+  out->set_queue_depth(status.queue_depth);
+  out->set_dds_input(dds_input);
+}
+
+}  // namespace mav::localization_service

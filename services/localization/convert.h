@@ -1,0 +1,60 @@
+#pragma once
+// mav.v1 localization messages <-> the localization service's domain types (pipeline.h).
+// Validation of request fields happens here, with messages that start with the field path as the
+// request spells it ("sparse.ransac_iterations: ...", "stereo.left.data: ...").
+
+#include <string>
+
+#include "mav/v1/common.pb.h"
+#include "mav/v1/localization.pb.h"
+
+#include "mav/camera/stereo.h"
+#include "mav/common/status.h"
+#include "mav/geometry/se3.h"
+#include "services/localization/pipeline.h"
+
+namespace mav::localization_service {
+
+// LocalizationMethod -> Method. InvalidArgument "method: ..." for UNSPECIFIED or an unknown value.
+Result<Method> MethodFromProto(v1::LocalizationMethod method);
+v1::LocalizationMethod ToProto(Method method);
+
+// Everything of a LocalizationConfigureRequest except the calibration (resolved by the service
+// from its source): method, sparse/dense options (0 = library default; ranges as in the proto),
+// initial_pose, output_frame, queue_length. InvalidArgument naming the field.
+Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& request);
+
+// A stereo rig from the proto; `field` prefixes error messages ("calibration.calibration").
+// InvalidArgument naming the field: missing camera, non-positive size or focal length, non-unit
+// quaternion, cameras of different sizes, zero baseline.
+struct RigCalibration {
+  camera::StereoCalibration calibration;
+  bool rectified = false;
+};
+Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
+                                            const std::string& field);
+
+// A Pose validated as common.proto says: finite position, quaternion norm within 1e-3 of 1
+// (then normalised). InvalidArgument "<field>.orientation: ...".
+Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& field);
+
+// A StereoPair as a StereoInput (pixels copied). InvalidArgument naming "<field>.left" etc.: empty
+// image, encoding not MONO8, data size != width*height, left/right sizes differ. The size against
+// the calibration and the time order are checked by the Localizer.
+Result<StereoInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
+
+void ToProto(const geometry::SE3& pose, v1::Pose* out);
+void ToProto(const PoseOutput& pose, v1::PoseWithCovariance* out);
+void ToProto(const PoseOutput& pose, v1::ProcessStereoPairResponse* out);
+void ToProto(const PoseOutput& pose, v1::TrajectoryPoint* out);
+void ToProto(const RuntimeSummary& stats, v1::RuntimeStats* out);
+void ToProto(const camera::StereoCalibration& calibration, bool rectified,
+             v1::StereoCalibration* out);
+// The effective configuration: library defaults filled in, the calibration inline.
+void ToProto(const LocalizerConfig& config, v1::LocalizationConfigureRequest* out);
+// `dds_input`: whether the service is subscribed to mav/sensors/stereo.
+void ToProto(const LocalizerStatus& status, bool dds_input, v1::LocalizationStatus* out);
+v1::TrackingState ToProto(ReportedState state);
+v1::LocalizationServiceState ToProto(LocalizerState state);
+
+}  // namespace mav::localization_service

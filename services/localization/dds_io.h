@@ -1,0 +1,101 @@
+#pragma once
+// The localization service's data plane (docs/contracts.md):
+//   in   mav/sensors/stereo       mav_dds_StereoFrame        Qos::SensorStream() (keep-last 4)
+//   in   mav/sensors/imu          mav_dds_ImuSample          Qos::HighRate() (counted only: the
+//                                                            VO methods are vision-only)
+//   out  mav/localization/pose    mav_dds_PoseWithCovariance Qos::State()
+// The stereo reader exists only while DDS input is enabled (Configure without
+// disable_dds_input): an unconfigured service is no subscriber, so a simulator waiting for its
+// subscribers does not count it.
+// Life cycle: create the DdsIo, then the Localizer with the DdsIo as its PoseSink, then Attach();
+// on shutdown switch the input off before destroying the Localizer. A reader thread waits for
+// frames, checks them (size, CRC-32), copies the pixels and hands them to Localizer::SubmitLive,
+// which never blocks (drop-oldest).
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "mav_sensors.h"
+#include "mav_state.h"
+
+#include "mav/transport/dds.h"
+#include "services/localization/pipeline.h"
+
+namespace mav::localization_service {
+
+// CRC-32 (IEEE 802.3, zlib's crc32) over `left` followed by `right`, as mav_sensors.idl says.
+uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
+                     size_t right_size);
+
+// DataLoss naming the field when the sample is inconsistent: encoding, width/height, "left: N
+// bytes, expected width*height = M", or "crc32: got X, computed Y".
+Status CheckStereoFrame(const mav_dds_StereoFrame& frame);
+
+// Copies a checked frame's pixels into a StereoInput.
+StereoInput FromDds(const mav_dds_StereoFrame& frame);
+
+// The pose sample for `pose` (frame_id "world", child_frame_id from `frame`).
+mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const PoseOutput& pose, OutputFrame frame,
+                                 int64_t publish_t_ns);
+
+// Switches the live stereo input on and off (DDS in production; absent in contract tests).
+class InputControl {
+ public:
+  virtual ~InputControl() = default;
+  virtual Status SetStereoInput(bool enabled) = 0;
+  virtual bool stereo_input() const = 0;
+};
+
+class DdsIo : public PoseSink, public InputControl {
+ public:
+  static Result<std::unique_ptr<DdsIo>> Create(const transport::DdsOptions& options);
+  ~DdsIo() override;
+
+  // The localizer that receives live frames (not owned). Call once, before SetStereoInput(true);
+  // stop the input (SetStereoInput(false)) before the localizer is destroyed.
+  void Attach(Localizer* localizer) { localizer_ = localizer; }
+
+  Status PublishPose(const PoseOutput& pose, OutputFrame frame) override;
+  Status SetStereoInput(bool enabled) override;
+  bool stereo_input() const override;
+
+  uint64_t frames_received() const { return frames_received_.load(); }
+  uint64_t imu_samples_received() const { return imu_received_.load(); }
+  uint64_t poses_published() const { return pose_sequence_.load(); }
+  uint32_t PoseSubscribers();
+  uint32_t domain() const { return static_cast<uint32_t>(participant_.domain()); }
+
+ private:
+  using StereoTopic = transport::Topic<mav_dds_StereoFrame>;
+  using ImuTopic = transport::Topic<mav_dds_ImuSample>;
+  using PoseTopic = transport::Topic<mav_dds_PoseWithCovariance>;
+  DdsIo(transport::Participant participant, StereoTopic stereo_topic, ImuTopic imu_topic,
+        PoseTopic pose_topic, transport::Writer<mav_dds_PoseWithCovariance> pose_writer);
+  void ReadLoop();
+  void StopReaderLocked();
+
+  Localizer* localizer_ = nullptr;
+  // Declaration order = reverse destruction order: readers/writer, topics, participant.
+  transport::Participant participant_;
+  StereoTopic stereo_topic_;
+  ImuTopic imu_topic_;
+  PoseTopic pose_topic_;
+  transport::Writer<mav_dds_PoseWithCovariance> pose_writer_;
+
+  mutable std::mutex control_mutex_;  // serialises SetStereoInput
+  std::optional<transport::Reader<mav_dds_StereoFrame>> stereo_reader_;
+  std::optional<transport::Reader<mav_dds_ImuSample>> imu_reader_;
+  std::thread reader_thread_;
+  std::atomic<bool> stop_reader_{false};
+
+  std::atomic<uint64_t> frames_received_{0};
+  std::atomic<uint64_t> imu_received_{0};
+  std::atomic<uint64_t> pose_sequence_{0};
+};
+
+}  // namespace mav::localization_service

@@ -1,0 +1,238 @@
+#include "services/localization/localization_service.h"
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+
+#include "mav/v1/simulator.grpc.pb.h"
+
+#include "mav/common/log.h"
+#include "mav/dataset/euroc.h"
+#include "mav/transport/grpc_server.h"
+
+namespace mav::localization_service {
+
+namespace {
+
+using transport::ToGrpcStatus;
+
+constexpr uint32_t kDefaultPosesPerChunk = 10000;
+constexpr uint32_t kMaxPosesPerChunk = 100000;
+
+Result<RigCalibration> CalibrationFromEuroc(const std::string& directory) {
+  const std::string field = "calibration.euroc_directory";
+  if (directory.empty()) return Status::InvalidArgument(field + ": empty");
+  namespace fs = std::filesystem;
+  std::error_code error;
+  if (!fs::is_directory(directory, error)) {
+    return Status::NotFound(field + ": '" + directory + "' is not a directory");
+  }
+  // The directory holding mav0/, or mav0/ itself.
+  fs::path mav0 = fs::path(directory) / "mav0";
+  if (!fs::is_directory(mav0, error)) mav0 = fs::path(directory);
+  const fs::path cam0 = mav0 / "cam0" / "sensor.yaml";
+  const fs::path cam1 = mav0 / "cam1" / "sensor.yaml";
+  for (const fs::path& path : {cam0, cam1}) {
+    if (!fs::is_regular_file(path, error)) {
+      return Status::NotFound(field + ": " + path.string() + " does not exist");
+    }
+  }
+  Result<dataset::CameraSensor> left = dataset::ReadCameraSensorYaml(cam0.string());
+  if (!left.ok()) {
+    return Status(left.status().code(), field + ": " + left.status().message());
+  }
+  Result<dataset::CameraSensor> right = dataset::ReadCameraSensorYaml(cam1.string());
+  if (!right.ok()) {
+    return Status(right.status().code(), field + ": " + right.status().message());
+  }
+  RigCalibration out;
+  out.calibration.cam0 = left->intrinsics;
+  out.calibration.cam1 = right->intrinsics;
+  out.calibration.T_body_cam0 = left->T_body_cam;
+  out.calibration.T_body_cam1 = right->T_body_cam;
+  out.rectified = false;  // EuRoC images are raw; an undistorted rig rectifies to itself
+  std::string why;
+  if (!out.calibration.IsValid(&why)) return Status::InvalidArgument(field + ": " + why);
+  return out;
+}
+
+Result<RigCalibration> CalibrationFromSimulator(const std::string& address, int64_t timeout_ms) {
+  const std::string field = "calibration.simulator_address";
+  if (address.empty()) return Status::InvalidArgument(field + ": empty");
+  auto channel = grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
+  auto stub = v1::Simulator::NewStub(channel);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(timeout_ms));
+  v1::GetCalibrationResponse response;
+  const grpc::Status status =
+      stub->GetCalibration(&context, v1::GetCalibrationRequest(), &response);
+  if (!status.ok()) {
+    const std::string text =
+        field + ": GetCalibration at " + address + ": " + status.error_message();
+    switch (status.error_code()) {
+      case grpc::StatusCode::FAILED_PRECONDITION:
+        return Status::FailedPrecondition(text);
+      case grpc::StatusCode::INVALID_ARGUMENT:
+        return Status::InvalidArgument(text);
+      default:
+        // Unreachable, timed out, shutting down, or not a simulator at all.
+        return Status::Unavailable(text);
+    }
+  }
+  return CalibrationFromProto(response.stereo(), field + " (GetCalibration.stereo)");
+}
+
+}  // namespace
+
+bool LocalizationServiceOptions::IsValid(std::string* why) const {
+  if (calibration_timeout_ms <= 0 || process_timeout_ms <= 0) {
+    if (why != nullptr) *why = "calibration_timeout_ms/process_timeout_ms: must be > 0";
+    return false;
+  }
+  return true;
+}
+
+Result<RigCalibration> ResolveCalibration(const v1::CalibrationSource& source, int64_t timeout_ms) {
+  switch (source.source_case()) {
+    case v1::CalibrationSource::kCalibration:
+      return CalibrationFromProto(source.calibration(), "calibration.calibration");
+    case v1::CalibrationSource::kEurocDirectory:
+      return CalibrationFromEuroc(source.euroc_directory());
+    case v1::CalibrationSource::kSimulatorAddress:
+      return CalibrationFromSimulator(source.simulator_address(), timeout_ms);
+    case v1::CalibrationSource::SOURCE_NOT_SET:
+      break;
+  }
+  return Status::InvalidArgument(
+      "calibration: not set; give calibration, euroc_directory or simulator_address");
+}
+
+LocalizationService::LocalizationService(Localizer* localizer, InputControl* input,
+                                         LocalizationServiceOptions options)
+    : localizer_(localizer), input_(input), options_(options) {}
+
+void LocalizationService::FillStatus(v1::LocalizationStatus* response) {
+  const LocalizerStatus status = localizer_->GetStatus();
+  ToProto(status, input_ != nullptr && input_->stereo_input(), response);
+}
+
+grpc::Status LocalizationService::ApplyConfigure(const v1::LocalizationConfigureRequest& request,
+                                                 v1::LocalizationStatus* response) {
+  Result<LocalizerConfig> config = ConfigFromProto(request);
+  if (!config.ok()) return ToGrpcStatus(config.status());
+  Result<RigCalibration> rig =
+      ResolveCalibration(request.calibration(), options_.calibration_timeout_ms);
+  if (!rig.ok()) {
+    MAV_LOG(kWarning) << "Configure: " << rig.status().ToString();
+    return ToGrpcStatus(rig.status());
+  }
+  config->calibration = rig->calibration;
+  config->calibration_rectified = rig->rectified;
+  const Status configured = localizer_->Configure(*config);
+  if (!configured.ok()) return ToGrpcStatus(configured);
+  if (input_ != nullptr) {
+    const Status input = input_->SetStereoInput(!request.disable_dds_input());
+    if (!input.ok()) return ToGrpcStatus(input);
+  }
+  FillStatus(response);
+  return grpc::Status::OK;
+}
+
+grpc::Status LocalizationService::Configure(grpc::ServerContext*,
+                                            const v1::LocalizationConfigureRequest* request,
+                                            v1::LocalizationStatus* response) {
+  return ApplyConfigure(*request, response);
+}
+
+grpc::Status LocalizationService::Reset(grpc::ServerContext*,
+                                        const v1::LocalizationResetRequest* request,
+                                        v1::LocalizationStatus* response) {
+  std::optional<geometry::SE3> initial;
+  if (request->has_initial_pose()) {
+    Result<geometry::SE3> pose = PoseFromProto(request->initial_pose(), "initial_pose");
+    if (!pose.ok()) return ToGrpcStatus(pose.status());
+    initial = *pose;
+  }
+  localizer_->Reset(initial);
+  FillStatus(response);
+  return grpc::Status::OK;
+}
+
+grpc::Status LocalizationService::GetStatus(grpc::ServerContext*,
+                                            const v1::LocalizationGetStatusRequest*,
+                                            v1::LocalizationStatus* response) {
+  FillStatus(response);
+  return grpc::Status::OK;
+}
+
+grpc::Status LocalizationService::GetTrajectory(grpc::ServerContext* context,
+                                                const v1::GetTrajectoryRequest* request,
+                                                grpc::ServerWriter<v1::TrajectoryChunk>* writer) {
+  if (request->start_t_ns() != 0 && request->end_t_ns() != 0 &&
+      request->start_t_ns() > request->end_t_ns()) {
+    return ToGrpcStatus(
+        Status::InvalidArgument("start_t_ns: " + std::to_string(request->start_t_ns()) +
+                                " > end_t_ns " + std::to_string(request->end_t_ns())));
+  }
+  if (request->max_poses_per_chunk() > kMaxPosesPerChunk) {
+    return ToGrpcStatus(Status::InvalidArgument(
+        "max_poses_per_chunk: must be <= " + std::to_string(kMaxPosesPerChunk) + ", got " +
+        std::to_string(request->max_poses_per_chunk())));
+  }
+  const size_t per_chunk =
+      request->max_poses_per_chunk() == 0 ? kDefaultPosesPerChunk : request->max_poses_per_chunk();
+  const std::vector<PoseOutput> poses =
+      localizer_->Trajectory(request->start_t_ns(), request->end_t_ns());
+  size_t next = 0;
+  do {
+    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
+    v1::TrajectoryChunk chunk;
+    const size_t end = std::min(poses.size(), next + per_chunk);
+    for (; next < end; ++next) ToProto(poses[next], chunk.add_points());
+    chunk.set_last(next == poses.size());
+    if (!writer->Write(chunk)) return grpc::Status(grpc::StatusCode::CANCELLED, "client went away");
+  } while (next < poses.size());
+  return grpc::Status::OK;
+}
+
+grpc::Status LocalizationService::ProcessStereoPair(grpc::ServerContext* context,
+                                                    const v1::ProcessStereoPairRequest* request,
+                                                    v1::ProcessStereoPairResponse* response) {
+  if (!localizer_->configured()) {
+    return ToGrpcStatus(Status::FailedPrecondition("not configured: call Configure first"));
+  }
+  if (!request->has_stereo()) {
+    return ToGrpcStatus(Status::InvalidArgument("stereo: not set"));
+  }
+  Result<StereoInput> input = StereoFromProto(request->stereo(), "stereo");
+  if (!input.ok()) return ToGrpcStatus(input.status());
+  input->publish = !request->skip_publish();
+
+  int64_t timeout_ms = options_.process_timeout_ms;
+  const auto deadline = context->deadline();
+  if (deadline != std::chrono::system_clock::time_point::max()) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::system_clock::now());
+    timeout_ms = std::clamp<int64_t>(left.count(), 1, timeout_ms);
+  }
+  SubmitOutcome outcome = SubmitOutcome::kQueued;
+  Result<PoseOutput> result =
+      localizer_->SubmitAndWait(std::move(*input), timeout_ms * 1'000'000, &outcome);
+  if (outcome == SubmitOutcome::kQueueFull) {
+    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, result.status().message());
+  }
+  if (!result.ok()) {
+    if (outcome == SubmitOutcome::kQueued && result.status().code() == StatusCode::kUnavailable &&
+        std::chrono::system_clock::now() >= deadline) {
+      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, result.status().message());
+    }
+    return ToGrpcStatus(result.status());
+  }
+  ToProto(*result, response);
+  return grpc::Status::OK;
+}
+
+}  // namespace mav::localization_service

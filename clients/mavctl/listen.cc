@@ -10,7 +10,7 @@
 #include "mav_state.h"
 
 #include "mav/common/time.h"
-#include "services/simulator/dds_io.h"
+#include "services/common/dds_codec.h"
 
 namespace mav::mavctl {
 
@@ -151,7 +151,7 @@ Result<ListenReport> Listen(const ListenOptions& options, std::ostream& progress
           if (!samples.valid(i)) continue;
           const mav_dds_StereoFrame& frame = samples[i];
           stereo_seq.Add(static_cast<int64_t>(frame.sequence_number), now_mono);
-          const Status check = simulator::CheckStereoFrame(frame);
+          const Status check = services::CheckStereoFrame(frame);
           if (!check.ok()) {
             ++report.crc_failures;
             if (report.first_error.empty()) report.first_error = check.message();

@@ -7,6 +7,7 @@
 
 #include "mav/v1/common.pb.h"
 #include "mav/v1/localization.pb.h"
+#include "services/common/proto_codec.h"
 
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
@@ -43,7 +44,7 @@ Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& fie
 // the calibration and the time order are checked by the Localizer.
 Result<StereoInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
 
-void ToProto(const geometry::SE3& pose, v1::Pose* out);
+using services::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics
 void ToProto(const PoseOutput& pose, v1::PoseWithCovariance* out);
 void ToProto(const PoseOutput& pose, v1::ProcessStereoPairResponse* out);
 void ToProto(const PoseOutput& pose, v1::TrajectoryPoint* out);

@@ -2,55 +2,18 @@
 
 #include <cstring>
 
-#include <zlib.h>
-
 #include "mav/common/log.h"
 #include "mav/common/time.h"
 
 namespace mav::localization_service {
 
+using services::CopyId;
+
 namespace {
 
 constexpr int64_t kReaderPollNs = 100'000'000;
 
-void CopyId(const char* id, char (&out)[33]) {
-  std::strncpy(out, id, sizeof(out) - 1);
-  out[sizeof(out) - 1] = '\0';
-}
-
 }  // namespace
-
-uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
-                     size_t right_size) {
-  uLong crc = crc32(0L, Z_NULL, 0);
-  crc = crc32_z(crc, left, left_size);
-  crc = crc32_z(crc, right, right_size);
-  return static_cast<uint32_t>(crc);
-}
-
-Status CheckStereoFrame(const mav_dds_StereoFrame& frame) {
-  const std::string where = "stereo frame " + std::to_string(frame.sequence_number) + ": ";
-  if (frame.encoding != mav_dds_PIXEL_FORMAT_MONO8) {
-    return Status::DataLoss(where + "encoding: expected MONO8");
-  }
-  if (frame.width == 0 || frame.height == 0) return Status::DataLoss(where + "width/height: zero");
-  const uint64_t expected = static_cast<uint64_t>(frame.width) * frame.height;
-  if (frame.left._length != expected) {
-    return Status::DataLoss(where + "left: " + std::to_string(frame.left._length) +
-                            " bytes, expected width*height = " + std::to_string(expected));
-  }
-  if (frame.right._length != expected) {
-    return Status::DataLoss(where + "right: " + std::to_string(frame.right._length) +
-                            " bytes, expected width*height = " + std::to_string(expected));
-  }
-  const uint32_t crc =
-      StereoCrc32(frame.left._buffer, frame.left._length, frame.right._buffer, frame.right._length);
-  if (crc != frame.crc32) {
-    return Status::DataLoss(where + "crc32: got " + std::to_string(frame.crc32) + ", computed " +
-                            std::to_string(crc));
-  }
-  return Status::Ok();
-}
 
 StereoInput FromDds(const mav_dds_StereoFrame& frame) {
   StereoInput out;

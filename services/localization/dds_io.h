@@ -24,17 +24,13 @@
 #include "mav_state.h"
 
 #include "mav/transport/dds.h"
+#include "services/common/dds_codec.h"
 #include "services/localization/pipeline.h"
 
 namespace mav::localization_service {
 
-// CRC-32 (IEEE 802.3, zlib's crc32) over `left` followed by `right`, as mav_sensors.idl says.
-uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
-                     size_t right_size);
-
-// DataLoss naming the field when the sample is inconsistent: encoding, width/height, "left: N
-// bytes, expected width*height = M", or "crc32: got X, computed Y".
-Status CheckStereoFrame(const mav_dds_StereoFrame& frame);
+using services::CheckStereoFrame;
+using services::StereoCrc32;
 
 // Copies a checked frame's pixels into a StereoInput.
 StereoInput FromDds(const mav_dds_StereoFrame& frame);

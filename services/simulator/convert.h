@@ -6,6 +6,7 @@
 
 #include "mav/v1/common.pb.h"
 #include "mav/v1/simulator.pb.h"
+#include "services/common/proto_codec.h"
 
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
@@ -31,7 +32,7 @@ Result<Pacing> FromProto(const v1::SimulatorStartRequest& request);
 void ToProto(const ScenarioInfo& info, v1::ScenarioSummary* out);
 void ToProto(const PlayerStatus& status, v1::SimulatorStatus* out);
 void ToProto(const Stats& stats, v1::RuntimeStats* out);
-void ToProto(const geometry::SE3& pose, v1::Pose* out);
+using services::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics
 void ToProto(const camera::StereoCalibration& calibration, double rate_hz, bool rectified,
              v1::StereoCalibration* out);
 void ToProto(const dataset::ImuNoise& noise, double rate_hz, v1::ImuNoise* out);

@@ -2,32 +2,19 @@
 
 #include <cstring>
 
-#include <zlib.h>
-
 #include "mav/common/check.h"
 #include "mav/common/time.h"
 
 namespace mav::simulator {
+
+using services::CopyId;
 
 namespace {
 
 mav_dds_Vector3 ToDds(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 Eigen::Vector3d FromDds(const mav_dds_Vector3& v) { return {v.x, v.y, v.z}; }
 
-void CopyId(const char* id, char (&out)[33]) {
-  std::strncpy(out, id, sizeof(out) - 1);
-  out[sizeof(out) - 1] = '\0';
-}
-
 }  // namespace
-
-uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
-                     size_t right_size) {
-  uLong crc = crc32(0L, Z_NULL, 0);
-  crc = crc32_z(crc, left, left_size);
-  crc = crc32_z(crc, right, right_size);
-  return static_cast<uint32_t>(crc);
-}
 
 void FillStereoFrame(uint64_t sequence, const RenderedFrame& frame, bool rectified,
                      int64_t publish_t_ns, mav_dds_StereoFrame* out) {
@@ -54,30 +41,6 @@ void FillStereoFrame(uint64_t sequence, const RenderedFrame& frame, bool rectifi
   out->right._length = out->right._maximum = n;
   out->right._release = false;
   out->crc32 = StereoCrc32(out->left._buffer, n, out->right._buffer, n);
-}
-
-Status CheckStereoFrame(const mav_dds_StereoFrame& frame) {
-  const std::string where = "stereo frame " + std::to_string(frame.sequence_number) + ": ";
-  if (frame.encoding != mav_dds_PIXEL_FORMAT_MONO8) {
-    return Status::DataLoss(where + "encoding: expected MONO8");
-  }
-  const uint64_t expected = static_cast<uint64_t>(frame.width) * frame.height;
-  if (frame.width == 0 || frame.height == 0) return Status::DataLoss(where + "width/height: zero");
-  if (frame.left._length != expected) {
-    return Status::DataLoss(where + "left: " + std::to_string(frame.left._length) +
-                            " bytes, expected width*height = " + std::to_string(expected));
-  }
-  if (frame.right._length != expected) {
-    return Status::DataLoss(where + "right: " + std::to_string(frame.right._length) +
-                            " bytes, expected width*height = " + std::to_string(expected));
-  }
-  const uint32_t crc =
-      StereoCrc32(frame.left._buffer, frame.left._length, frame.right._buffer, frame.right._length);
-  if (crc != frame.crc32) {
-    return Status::DataLoss(where + "crc32: got " + std::to_string(frame.crc32) + ", computed " +
-                            std::to_string(crc));
-  }
-  return Status::Ok();
 }
 
 mav_dds_ImuSample ToDds(uint64_t sequence, const dataset::ImuSample& sample, int64_t publish_t_ns) {

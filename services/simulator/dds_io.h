@@ -14,23 +14,19 @@
 
 #include "mav/dataset/types.h"
 #include "mav/transport/dds.h"
+#include "services/common/dds_codec.h"
 #include "services/simulator/playback.h"
 
 namespace mav::simulator {
 
-// CRC-32 (IEEE 802.3, zlib's crc32) over `left` followed by `right`, as the IDL specifies.
-uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
-                     size_t right_size);
+using services::CheckStereoFrame;
+using services::StereoCrc32;
 
 // Fills `out` for `frame`. The image sequences BORROW the frame's pixel buffers (no copy): `out`
 // is valid only while `frame` lives, and must not be freed with mav_dds_StereoFrame_free.
 // MAV_CHECKs that both images are continuous CV_8UC1 of the same size.
 void FillStereoFrame(uint64_t sequence, const RenderedFrame& frame, bool rectified,
                      int64_t publish_t_ns, mav_dds_StereoFrame* out);
-
-// DataLoss naming the field when the sample is inconsistent: encoding, "left: N bytes, expected
-// width*height = M", or "crc32: got X, computed Y".
-Status CheckStereoFrame(const mav_dds_StereoFrame& frame);
 
 mav_dds_ImuSample ToDds(uint64_t sequence, const dataset::ImuSample& sample, int64_t publish_t_ns);
 mav_dds_GroundTruthState ToDds(uint64_t sequence, const dataset::GroundTruthState& state,

@@ -1,0 +1,25 @@
+#pragma once
+// Codec pieces every service shares for the DDS data-plane types (protos/dds/*.idl): the stereo
+// frame checksum and integrity check, and the fixed-size id strings.
+
+#include <cstddef>
+#include <cstdint>
+
+#include "mav_sensors.h"
+
+#include "mav/common/status.h"
+
+namespace mav::services {
+
+// CRC-32 (IEEE 802.3, zlib's crc32) over `left` followed by `right`, as the IDL specifies.
+uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
+                     size_t right_size);
+
+// DataLoss naming the field when the sample is inconsistent: encoding, "left: N bytes, expected
+// width*height = M", or "crc32: got X, computed Y".
+Status CheckStereoFrame(const mav_dds_StereoFrame& frame);
+
+// Copies a NUL-terminated id into an IDL string<32> field, truncating if needed.
+void CopyId(const char* id, char (&out)[33]);
+
+}  // namespace mav::services

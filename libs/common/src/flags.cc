@@ -1,6 +1,8 @@
 #include "mav/common/flags.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <sstream>
 
 #include "mav/common/parse.h"
@@ -83,19 +85,26 @@ Status FlagParser::Assign(Flag* flag, const std::string& value) {
 
 Status FlagParser::Parse(const std::vector<std::string>& args, std::vector<std::string>* positional,
                          bool* help) {
-  *help = false;
+  if (help != nullptr) *help = false;
+  const auto add_positional = [&](const std::string& arg) {
+    if (positional == nullptr) {
+      return Status::InvalidArgument("unexpected argument '" + arg + "' (this takes flags only)");
+    }
+    positional->push_back(arg);
+    return Status::Ok();
+  };
   for (size_t i = 0; i < args.size(); ++i) {
     const std::string& arg = args[i];
     if (arg == "--help" || arg == "-h") {
-      *help = true;
+      if (help != nullptr) *help = true;
       continue;
     }
     if (arg == "--") {
-      positional->insert(positional->end(), args.begin() + i + 1, args.end());
+      for (size_t k = i + 1; k < args.size(); ++k) MAV_RETURN_IF_ERROR(add_positional(args[k]));
       break;
     }
     if (arg.size() < 2 || arg[0] != '-') {
-      positional->push_back(arg);
+      MAV_RETURN_IF_ERROR(add_positional(arg));
       continue;
     }
     if (arg.rfind("--", 0) != 0) {
@@ -105,7 +114,7 @@ Status FlagParser::Parse(const std::vector<std::string>& args, std::vector<std::
     const std::string name = arg.substr(2, eq == std::string::npos ? std::string::npos : eq - 2);
     Flag* flag = Find(name);
     if (flag == nullptr) {
-      return Status::InvalidArgument("unknown flag '--" + name + "' (see --help)");
+      return Status::InvalidArgument("unknown flag --" + name + " (see --help)");
     }
     if (eq != std::string::npos) {
       MAV_RETURN_IF_ERROR(Assign(flag, arg.substr(eq + 1)));
@@ -124,6 +133,24 @@ Status FlagParser::Parse(const std::vector<std::string>& args, std::vector<std::
     }
   }
   return Status::Ok();
+}
+
+std::vector<std::string> FlagParser::ParseOrExit(int argc, char** argv, int first,
+                                                 bool allow_positional) {
+  const std::vector<std::string> args(argv + std::min(first, argc), argv + argc);
+  std::vector<std::string> positional;
+  bool help = false;
+  const Status s = Parse(args, allow_positional ? &positional : nullptr, &help);
+  const std::string program = program_.empty() ? std::string(argv[0]) : program_;
+  if (!s.ok()) {
+    std::fprintf(stderr, "%s: %s\n%s", program.c_str(), s.message().c_str(), Help().c_str());
+    std::exit(2);
+  }
+  if (help) {
+    std::fputs(Help().c_str(), stdout);
+    std::exit(0);
+  }
+  return positional;
 }
 
 std::string FlagParser::Help() const {

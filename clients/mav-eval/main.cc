@@ -1,5 +1,6 @@
 // mav-eval: reproduces the reference paper's tables with our own code and data.
 //   mav-eval localization --data DIR [--method ...] [--out DIR] [--json FILE]
+//   mav-eval mapping --data DIR [--method ...] [--out DIR] [--json FILE]
 
 #include <iostream>
 #include <string>
@@ -13,6 +14,7 @@ constexpr const char* kUsage =
     "usage: mav-eval <command> [flags]\n"
     "commands:\n"
     "  localization   stereo VO accuracy and runtime (the paper's Tables 1 and 2)\n"
+    "  mapping        sparse mesh vs OctoMap: collision-check MCC and runtime (Tables 3 and 4)\n"
     "run 'mav-eval <command> --help' for the flags of a command\n";
 
 }  // namespace
@@ -25,6 +27,7 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   const std::vector<std::string> args(argv + 2, argv + argc);
   if (command == "localization") return mav::eval_cli::RunLocalization(args);
+  if (command == "mapping") return mav::eval_cli::RunMapping(args);
   if (command == "--help" || command == "-h" || command == "help") {
     std::cout << kUsage;
     return 0;

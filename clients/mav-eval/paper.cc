@@ -28,4 +28,13 @@ const std::array<PaperLocalizationRow, 3>& PaperLocalization() {
   return kRows;
 }
 
+const std::array<PaperMappingRow, 3>& PaperMapping() {
+  static const std::array<PaperMappingRow, 3> kRows = {{
+      {2839, 214, 0.514, 0.886, 73, 30, {27.57, 0.00, 54.13, 18.29}, {5.78, 0.11, 54.02, 40.07}},
+      {1559, 284, 0.589, 0.896, 82, 23, {23.76, 0.00, 51.84, 24.40}, {4.67, 0.67, 51.17, 43.49}},
+      {2079, 432, 0.581, 0.938, 115, 31, {24.17, 0.00, 52.30, 23.53}, {2.75, 0.39, 51.90, 44.95}},
+  }};
+  return kRows;
+}
+
 }  // namespace mav::eval_cli

@@ -22,4 +22,20 @@ struct PaperLocalizationRow {
 
 const std::array<PaperLocalizationRow, 3>& PaperLocalization();
 
+// Tables 3 and 4 (mapping), one row per data set.
+struct PaperMappingRow {
+  int frames;
+  int keyframes;
+  double mcc_octomap;
+  double mcc_ours;
+  double runtime_octomap_s;
+  double runtime_ours_s;
+  // Table 4, percent of box positions, in the order false-collision, missed-collision,
+  // correct-collision, correct-free.
+  std::array<double, 4> outcomes_octomap_pct;
+  std::array<double, 4> outcomes_ours_pct;
+};
+
+const std::array<PaperMappingRow, 3>& PaperMapping();
+
 }  // namespace mav::eval_cli

@@ -1,0 +1,589 @@
+// mav-eval mapping: runs the sparse multi-view mesher and the OctoMap + dense-stereo baseline on
+// the same keyframes of an EuRoC directory with ground-truth poses and occupancy, scores both
+// with the paper's collision-check protocol and prints its Tables 3 and 4 (Holzmann et al. 2015)
+// with the paper's figures beside ours.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "commands.h"
+#include "json.h"
+#include "mav/camera/rectifier.h"
+#include "mav/common/file.h"
+#include "mav/common/flags.h"
+#include "mav/common/progress.h"
+#include "mav/dataset/euroc.h"
+#include "mav/eval/trajectory_metrics.h"
+#include "mav/mapping/collision_eval.h"
+#include "mav/mapping/mesh.h"
+#include "mav/mapping/pipeline.h"
+#include "mav/sim/occupancy.h"
+#include "paper.h"
+
+namespace mav::eval_cli {
+namespace {
+
+using mapping::CollisionOutcomes;
+using mapping::MappingMethod;
+using mapping::VoxelGrid;
+using mapping::VoxelState;
+
+constexpr const char* kCommand = "mav-eval mapping";
+
+int Fail(const std::string& message, int code = 1) {
+  std::cerr << kCommand << ": " << message << "\n";
+  return code;
+}
+
+// Preset name from <data>/ground_truth/scenario.yaml (written by mav-sim), empty if absent.
+std::string ReadPreset(const std::string& data) {
+  std::ifstream in(data + "/ground_truth/scenario.yaml");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("preset:", 0) == 0) {
+      std::string value = line.substr(7);
+      value.erase(0, value.find_first_not_of(" \"'"));
+      value.erase(value.find_last_not_of(" \"'\r") + 1);
+      return value;
+    }
+  }
+  return "";
+}
+
+// The simulator's grid has the same layout and state values as the mapping library's.
+VoxelGrid ToVoxelGrid(const sim::OccupancyGrid& g) {
+  static_assert(sizeof(VoxelState) == sizeof(sim::VoxelState));
+  std::vector<VoxelState> states(g.states().size());
+  std::memcpy(states.data(), g.states().data(), states.size());
+  return VoxelGrid(mapping::GridGeometry{g.origin(), g.resolution(), g.size()}, std::move(states));
+}
+
+// The evaluation volume: the bounding box (voxel indices, [min, max)) of the ground truth's known
+// voxels, i.e. the world's bounds (room interior plus walls, floor and ceiling).
+bool KnownRegion(const VoxelGrid& truth, Eigen::Vector3i* lo, Eigen::Vector3i* hi) {
+  *lo = truth.size();
+  *hi = Eigen::Vector3i::Zero();
+  const Eigen::Vector3i n = truth.size();
+  for (int k = 0; k < n.z(); ++k) {
+    for (int j = 0; j < n.y(); ++j) {
+      for (int i = 0; i < n.x(); ++i) {
+        if (truth[truth.Linear(i, j, k)] == VoxelState::kUnknown) continue;
+        *lo = lo->cwiseMin(Eigen::Vector3i(i, j, k));
+        *hi = hi->cwiseMax(Eigen::Vector3i(i + 1, j + 1, k + 1));
+      }
+    }
+  }
+  return (hi->array() > lo->array()).all();
+}
+
+// ---- Figure 2: point cloud + keyframes, mesh, height-coloured occupancy --------------------
+
+// A perspective view of the scene from above and the side, looking at its centre.
+struct View3d {
+  Eigen::Matrix3d R_cam_world;
+  Eigen::Vector3d t_cam_world;
+  double f = 0, cx = 0, cy = 0;
+
+  std::optional<cv::Point2f> Project(const Eigen::Vector3d& p, double* depth = nullptr) const {
+    const Eigen::Vector3d c = R_cam_world * p + t_cam_world;
+    if (c.z() < 0.1) return std::nullopt;
+    if (depth) *depth = c.z();
+    return cv::Point2f(static_cast<float>(f * c.x() / c.z() + cx),
+                       static_cast<float>(f * c.y() / c.z() + cy));
+  }
+};
+
+View3d MakeView(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, int width, int height) {
+  const Eigen::Vector3d centre = 0.5 * (lo + hi);
+  const double radius = 0.5 * (hi - lo).norm();
+  const Eigen::Vector3d dir = Eigen::Vector3d(-0.55, -1.0, 1.25).normalized();
+  const Eigen::Vector3d eye = centre + dir * radius * 2.1;
+  const Eigen::Vector3d z = (centre - eye).normalized();
+  const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  View3d v;
+  v.R_cam_world.row(0) = x.transpose();
+  v.R_cam_world.row(1) = y.transpose();
+  v.R_cam_world.row(2) = z.transpose();
+  v.t_cam_world = -v.R_cam_world * eye;
+  v.f = 0.95 * std::min(width, height) * 2.1 / 2.0 / 1.05;
+  v.cx = width / 2.0;
+  v.cy = height / 2.0 + 0.04 * height;
+  return v;
+}
+
+// Blue (low) to red (high), like the paper's occupancy picture.
+cv::Scalar HeightColour(double z, double z_lo, double z_hi) {
+  const double t = std::clamp((z - z_lo) / std::max(z_hi - z_lo, 1e-6), 0.0, 1.0);
+  cv::Mat1b in(1, 1, static_cast<uint8_t>(std::lround(t * 255)));
+  cv::Mat3b out;
+  cv::applyColorMap(in, out, cv::COLORMAP_JET);
+  const cv::Vec3b c = out(0, 0);
+  return cv::Scalar(c[0], c[1], c[2]);
+}
+
+Status WriteMappingFigure(const std::string& path, const std::string& title,
+                          const mapping::MappingOutput& out, const VoxelGrid& truth) {
+  const int w = 640, h = 520;
+  cv::Mat canvas(h, 3 * w, CV_8UC3, cv::Scalar(255, 255, 255));
+  const Eigen::Vector3d lo = truth.origin();
+  const Eigen::Vector3d hi = lo + truth.size().cast<double>() * truth.resolution();
+  double z_cut = lo.z();
+  for (const auto& T : out.keyframe_poses) z_cut = std::max(z_cut, T.Translation().z());
+  z_cut += 0.3;  // cut away the ceiling so the inside can be seen
+  const View3d view = MakeView(lo, hi, w, h);
+  cv::Mat panels[3] = {canvas(cv::Rect(0, 0, w, h)), canvas(cv::Rect(w, 0, w, h)),
+                       canvas(cv::Rect(2 * w, 0, w, h))};
+
+  // Left: points (height-coloured) and keyframe poses (camera centre + optical axis).
+  for (const mapping::MapPoint& p : out.points) {
+    if (p.p_world.z() > z_cut) continue;
+    if (auto px = view.Project(p.p_world)) {
+      cv::circle(panels[0], *px, 1, HeightColour(p.p_world.z(), lo.z(), z_cut), cv::FILLED);
+    }
+  }
+  for (const auto& T : out.keyframe_poses) {
+    const Eigen::Vector3d c = T.Translation();
+    const Eigen::Vector3d axis = T * Eigen::Vector3d(0, 0, 0.25);
+    auto pc = view.Project(c), pa = view.Project(axis);
+    if (pc && pa) cv::line(panels[0], *pc, *pa, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    if (pc) cv::circle(panels[0], *pc, 2, cv::Scalar(0, 0, 200), cv::FILLED, cv::LINE_AA);
+  }
+
+  // Middle: the mesh, flat-shaded, far triangles first.
+  {
+    const mapping::TriangleMesh& mesh = out.meshing.mesh;
+    struct Tri {
+      double depth;
+      std::array<cv::Point, 3> px;
+      cv::Scalar colour;
+    };
+    std::vector<Tri> tris;
+    const Eigen::Vector3d light = Eigen::Vector3d(0.3, -0.5, 1.0).normalized();
+    for (const Eigen::Vector3i& t : mesh.triangles) {
+      const Eigen::Vector3d& a = mesh.vertices[t[0]];
+      const Eigen::Vector3d& b = mesh.vertices[t[1]];
+      const Eigen::Vector3d& c = mesh.vertices[t[2]];
+      if (std::max({a.z(), b.z(), c.z()}) > z_cut) continue;
+      Tri tri;
+      double da = 0, db = 0, dc = 0;
+      auto pa = view.Project(a, &da), pb = view.Project(b, &db), pc = view.Project(c, &dc);
+      if (!pa || !pb || !pc) continue;
+      tri.depth = (da + db + dc) / 3;
+      tri.px = {cv::Point(*pa), cv::Point(*pb), cv::Point(*pc)};
+      const Eigen::Vector3d n = (b - a).cross(c - a).normalized();
+      const double shade = 0.35 + 0.65 * std::abs(n.dot(light));
+      tri.colour = cv::Scalar(190 * shade, 200 * shade, 210 * shade);
+      tris.push_back(tri);
+    }
+    std::sort(tris.begin(), tris.end(),
+              [](const Tri& x, const Tri& y) { return x.depth > y.depth; });
+    for (const Tri& t : tris) {
+      cv::fillConvexPoly(panels[1], t.px.data(), 3, t.colour, cv::LINE_AA);
+    }
+  }
+
+  // Right: our occupancy grid, occupied voxels with a free or unknown 6-neighbour (the visible
+  // shell), height-coloured, far voxels first.
+  {
+    const VoxelGrid& g = out.has_sparse_mesh ? out.sparse_mesh_grid : out.octomap_grid;
+    const Eigen::Vector3i n = g.size();
+    struct Vox {
+      double depth;
+      cv::Point2f px;
+      double z;
+    };
+    std::vector<Vox> voxels;
+    auto occupied = [&](int i, int j, int k) {
+      return g.InBounds({i, j, k}) && g[g.Linear(i, j, k)] == VoxelState::kOccupied;
+    };
+    for (int k = 0; k < n.z(); ++k) {
+      for (int j = 0; j < n.y(); ++j) {
+        for (int i = 0; i < n.x(); ++i) {
+          if (!occupied(i, j, k)) continue;
+          const Eigen::Vector3d c = g.CenterOf({i, j, k});
+          if (c.z() > z_cut) continue;
+          if (occupied(i - 1, j, k) && occupied(i + 1, j, k) && occupied(i, j - 1, k) &&
+              occupied(i, j + 1, k) && occupied(i, j, k - 1) && occupied(i, j, k + 1)) {
+            continue;
+          }
+          double depth = 0;
+          if (auto px = view.Project(c, &depth)) voxels.push_back({depth, *px, c.z()});
+        }
+      }
+    }
+    std::sort(voxels.begin(), voxels.end(),
+              [](const Vox& x, const Vox& y) { return x.depth > y.depth; });
+    for (const Vox& v : voxels) {
+      const float half = static_cast<float>(0.5 * view.f * g.resolution() / v.depth) + 0.5f;
+      const cv::Scalar colour = HeightColour(v.z, lo.z(), z_cut);
+      cv::rectangle(panels[2], cv::Point2f(v.px.x - half, v.px.y - half),
+                    cv::Point2f(v.px.x + half, v.px.y + half), colour, cv::FILLED);
+    }
+  }
+
+  const char* captions[3] = {"3D points and keyframe poses", "mesh (Delaunay + graph cut)",
+                             "occupancy grid (height: blue low, red high)"};
+  for (int p = 0; p < 3; ++p) {
+    cv::putText(panels[p], captions[p], cv::Point(12, 24), cv::FONT_HERSHEY_SIMPLEX, 0.55,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    if (p > 0)
+      cv::line(canvas, cv::Point(p * w, 0), cv::Point(p * w, h), cv::Scalar(200, 200, 200));
+  }
+  cv::putText(canvas, title, cv::Point(12, h - 12), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+              cv::Scalar(60, 60, 60), 1, cv::LINE_AA);
+  if (!cv::imwrite(path, canvas)) return Status::IoError(path + ": cannot write PNG");
+  return Status::Ok();
+}
+
+// ---- Tables ----------------------------------------------------------------------------------
+
+struct MethodResult {
+  MappingMethod method;
+  CollisionOutcomes outcomes;
+  double runtime_s = 0;
+};
+
+std::string Paper(const std::optional<int>& ds, double v, const char* format) {
+  if (!ds) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), format, v);
+  return buf;
+}
+
+void PrintTables(const std::vector<MethodResult>& results, const mapping::MappingOutput& out,
+                 const std::string& preset) {
+  const std::optional<int> ds = PaperDataSetIndex(preset);
+  const PaperMappingRow* paper = ds ? &PaperMapping()[*ds] : nullptr;
+  std::printf("\nTable 3: accuracy (MCC) and runtime for the whole data set%s\n",
+              ds ? (" (paper: data set " + std::to_string(*ds + 1) + ")").c_str() : "");
+  std::printf("%-12s %8s %10s   %s\n", "", "frames", "keyframes", "paper frames / keyframes");
+  std::printf(
+      "%-12s %8lld %10lld   %s\n", preset.empty() ? "data" : preset.c_str(),
+      static_cast<long long>(out.frames), static_cast<long long>(out.keyframes),
+      paper ? (std::to_string(paper->frames) + " / " + std::to_string(paper->keyframes)).c_str()
+            : "-");
+  std::printf("%-12s %8s %8s %11s %9s\n", "method", "MCC", "paper", "runtime", "paper");
+  for (const MethodResult& r : results) {
+    const bool ours = r.method == MappingMethod::kSparseMesh;
+    std::printf(
+        "%-12s %8.3f %8s %9.2f s %9s\n", mapping::MappingMethodName(r.method), r.outcomes.Mcc(),
+        Paper(ds, paper ? (ours ? paper->mcc_ours : paper->mcc_octomap) : 0, "%.3f").c_str(),
+        r.runtime_s,
+        Paper(ds, paper ? (ours ? paper->runtime_ours_s : paper->runtime_octomap_s) : 0, "%.0f s")
+            .c_str());
+  }
+  if (results.size() == 2) {
+    std::printf(
+        "speed-up sparse-mesh over octomap: %.1fx (paper %s); MCC gap %+.3f (paper %s)\n",
+        results[1].runtime_s / std::max(results[0].runtime_s, 1e-9),
+        Paper(ds, paper ? paper->runtime_octomap_s / paper->runtime_ours_s : 0, "%.1fx").c_str(),
+        results[0].outcomes.Mcc() - results[1].outcomes.Mcc(),
+        Paper(ds, paper ? paper->mcc_ours - paper->mcc_octomap : 0, "%+.3f").c_str());
+  }
+
+  std::printf("\nTable 4: collision-check outcomes (%% of box positions)%s\n",
+              ds ? (" (paper: data set " + std::to_string(*ds + 1) + ")").c_str() : "");
+  std::printf("%-18s", "outcome");
+  for (const MethodResult& r : results) {
+    std::printf(" %12s %8s", mapping::MappingMethodName(r.method), "paper");
+  }
+  std::printf("\n");
+  const char* names[4] = {"false-collision", "missed-collision", "correct-collision",
+                          "correct-free"};
+  for (int o = 0; o < 4; ++o) {
+    std::printf("%-18s", names[o]);
+    for (const MethodResult& r : results) {
+      const CollisionOutcomes& c = r.outcomes;
+      const int64_t counts[4] = {c.false_collision, c.missed_collision, c.correct_collision,
+                                 c.correct_free};
+      const bool ours = r.method == MappingMethod::kSparseMesh;
+      const double p =
+          paper ? (ours ? paper->outcomes_ours_pct[o] : paper->outcomes_octomap_pct[o]) : 0;
+      std::printf(" %12.2f %8s", c.Percent(counts[o]), Paper(ds, p, "%.2f").c_str());
+    }
+    std::printf("\n");
+  }
+  if (!results.empty()) {
+    std::printf("(%lld box positions; box %s)\n",
+                static_cast<long long>(results.front().outcomes.total()),
+                "0.6 x 0.6 x 0.2 m = 12 x 12 x 4 voxels, unknown counts as occupied in both");
+  }
+}
+
+}  // namespace
+
+int RunMapping(const std::vector<std::string>& args) {
+  std::string data, method_name = "all", out_dir, json_path;
+  int64_t max_frames = 0;
+  double keyframe_translation_m = mapping::KeyframeOptions().min_translation_m;
+  double keyframe_rotation_deg = mapping::KeyframeOptions().min_rotation_rad * 180.0 / M_PI;
+  bool no_figure = false;
+  mapping::MappingPipelineOptions options;
+  FlagParser flags(
+      "mav-eval mapping --data DIR [--method sparse-mesh|octomap|all] [--out DIR] [--json FILE] "
+      "[--frames N]");
+  flags.AddString("data", &data,
+                  "EuRoC directory with ground-truth poses and DIR/ground_truth/occupancy.mavocc "
+                  "(e.g. from mav-sim generate)");
+  flags.AddString("method", &method_name, "sparse-mesh, octomap or all");
+  flags.AddString("out", &out_dir,
+                  "directory for mesh.ply, the occupancy grids (.bt) and mapping.png "
+                  "(default DIR/eval)");
+  flags.AddString("json", &json_path, "write every figure as {method: {metric: value}}");
+  flags.AddInt64("frames", &max_frames, "use only the first N frames (0 = all)");
+  flags.AddDouble("keyframe-translation", &keyframe_translation_m,
+                  "camera-centre distance to the last keyframe that makes a keyframe [m]");
+  flags.AddDouble("keyframe-rotation-deg", &keyframe_rotation_deg,
+                  "rotation to the last keyframe that makes a keyframe [deg]");
+  flags.AddBool("no-figure", &no_figure, "do not draw mapping.png");
+  int64_t points_per_keyframe = options.sparse.target_points_per_keyframe;
+  flags.AddInt64("points-per-keyframe", &points_per_keyframe,
+                 "sparse-mesh: stereo points kept per keyframe (the paper: ~100)");
+  flags.AddDouble("mesh-sigma", &options.meshing.sigma,
+                  "sparse-mesh: distance behind a point of its inside (sink) cell [m]");
+  flags.AddDouble("mesh-lambda", &options.meshing.lambda_quality,
+                  "sparse-mesh: weight of the surface-quality term");
+  flags.AddBool("all-reobservations", &options.sparse.apply_all_reobservations,
+                "sparse-mesh: apply every re-observation of an existing point, beyond the target");
+  flags.AddBool("occupy-surface-voxels", &options.mesh_to_grid.occupy_surface_voxels,
+                "sparse-mesh: voxels touching the mesh are occupied");
+  std::vector<std::string> positional;
+  bool help = false;
+  if (Status s = flags.Parse(args, &positional, &help); !s.ok()) return Fail(s.message(), 2);
+  if (help) {
+    std::cout << flags.Help();
+    return 0;
+  }
+  if (data.empty() || !positional.empty()) {
+    std::cerr << kCommand << ": --data DIR is required\n" << flags.Help();
+    return 2;
+  }
+  if (points_per_keyframe < 1 || points_per_keyframe > 100000) {
+    return Fail("--points-per-keyframe: must be in [1, 100000]", 2);
+  }
+  options.sparse.target_points_per_keyframe = static_cast<int>(points_per_keyframe);
+  if (method_name == "sparse-mesh") {
+    options.run_octomap = false;
+  } else if (method_name == "octomap") {
+    options.run_sparse_mesh = false;
+  } else if (method_name != "all") {
+    return Fail("--method: unknown method '" + method_name + "' (known: sparse-mesh, octomap, all)",
+                2);
+  }
+  if (max_frames < 0) return Fail("--frames: must be >= 0", 2);
+  options.keyframes.min_translation_m = keyframe_translation_m;
+  options.keyframes.min_rotation_rad = keyframe_rotation_deg * M_PI / 180.0;
+  if (std::string why; !options.IsValid(&why)) {
+    return Fail("invalid flag value: " + why, 2);
+  }
+  if (out_dir.empty()) out_dir = data + "/eval";
+
+  auto reader = dataset::EurocReader::Open(data);
+  if (!reader.ok()) return Fail(reader.status().message());
+  if (!reader->has_ground_truth()) {
+    return Fail(reader->mav0() +
+                "/state_groundtruth_estimate0/data.csv: no ground-truth poses (mapping uses "
+                "them, as the paper used Vicon poses)");
+  }
+  const std::string occupancy_path = data + "/ground_truth/occupancy.mavocc";
+  auto truth_sim = sim::OccupancyGrid::Read(occupancy_path);
+  if (!truth_sim.ok()) return Fail(truth_sim.status().message());
+  const VoxelGrid truth = ToVoxelGrid(*truth_sim);
+  auto rectifier = camera::StereoRectifier::Create(reader->calibration());
+  if (!rectifier.ok()) return Fail(rectifier.status().message());
+  auto pipeline = mapping::MappingPipeline::Create(rectifier->rectified(), options);
+  if (!pipeline.ok()) return Fail(pipeline.status().message());
+
+  // Camera poses at the frame times: T_world_cam = T_world_body(t) * T_body_rect0, the ground
+  // truth interpolated (slerp + linear) at each frame's time stamp.
+  const int64_t n =
+      max_frames > 0 ? std::min(max_frames, reader->num_frames()) : reader->num_frames();
+  std::vector<dataset::StampedPose> frames, gt;
+  for (int64_t i = 0; i < n; ++i) frames.push_back({reader->frame_times()[i], geometry::SE3()});
+  for (const auto& s : reader->ground_truth()) gt.push_back({s.t_ns, s.T_world_body});
+  auto assoc = eval::AssociateByTime(frames, gt);
+  if (!assoc.ok()) return Fail("ground truth at the frame times: " + assoc.status().message());
+  const geometry::SE3 T_body_cam = rectifier->T_body_rect0();
+  std::vector<int64_t> keyframe_index;
+  std::vector<geometry::SE3> keyframe_pose;
+  {
+    size_t a = 0;
+    for (int64_t i = 0; i < n; ++i) {
+      if (a >= assoc->t_ns.size() || assoc->t_ns[a] != reader->frame_times()[i]) continue;
+      const geometry::SE3 T_world_cam = assoc->ground_truth[a++] * T_body_cam;
+      auto is_keyframe = pipeline->ConsiderFrame(T_world_cam);
+      if (!is_keyframe.ok())
+        return Fail("frame " + std::to_string(i) + ": " + is_keyframe.status().message());
+      if (*is_keyframe) {
+        keyframe_index.push_back(i);
+        keyframe_pose.push_back(T_world_cam);
+      }
+    }
+  }
+  if (keyframe_index.empty()) return Fail("no frame lies inside the ground truth's time span");
+
+  // Read and rectify the keyframes (not timed: shared by both methods) two at a time, then map.
+  ProgressBar progress("mapping", static_cast<int64_t>(keyframe_index.size()));
+  cv::Mat raw[2][2], rect[2][2];
+  Status read_status[2];
+  for (size_t k = 0; k < keyframe_index.size(); k += 2) {
+    const size_t count = std::min<size_t>(2, keyframe_index.size() - k);
+    auto load = [&](size_t slot) {
+      read_status[slot] =
+          reader->ReadStereo(keyframe_index[k + slot], &raw[slot][0], &raw[slot][1]);
+      if (read_status[slot].ok()) {
+        read_status[slot] =
+            rectifier->Rectify(raw[slot][0], raw[slot][1], &rect[slot][0], &rect[slot][1]);
+      }
+    };
+    std::thread second;
+    if (count == 2) second = std::thread(load, 1);
+    load(0);
+    if (second.joinable()) second.join();
+    for (size_t slot = 0; slot < count; ++slot) {
+      if (!read_status[slot].ok()) return Fail(read_status[slot].message());
+      Status s = pipeline->InsertKeyframe(rect[slot][0], rect[slot][1], keyframe_pose[k + slot]);
+      if (!s.ok()) {
+        return Fail("keyframe at frame " + std::to_string(keyframe_index[k + slot]) + ": " +
+                    s.message());
+      }
+      progress.Update(static_cast<int64_t>(k + slot + 1));
+    }
+  }
+  progress.Finish();
+  auto out = pipeline->Finish(truth.geometry());
+  if (!out.ok()) return Fail(out.status().message());
+
+  // The paper's protocol over the evaluation volume.
+  mapping::CollisionEvalOptions eval_options;  // 0.6 x 0.6 x 0.2 m box, unknown = occupied
+  if (!KnownRegion(truth, &eval_options.region_min, &eval_options.region_max)) {
+    return Fail(occupancy_path + ": the ground truth has no known voxel");
+  }
+  std::vector<MethodResult> results;
+  JsonReport json;
+  for (MappingMethod m : {MappingMethod::kSparseMesh, MappingMethod::kOctomap}) {
+    const bool ours = m == MappingMethod::kSparseMesh;
+    if (ours ? !out->has_sparse_mesh : !out->has_octomap) continue;
+    auto outcomes = mapping::EvaluateCollisions(
+        truth, ours ? out->sparse_mesh_grid : out->octomap_grid, eval_options);
+    if (!outcomes.ok()) return Fail(outcomes.status().message());
+    MethodResult r{m, *outcomes,
+                   ours ? out->sparse_mesh_timing.total_s : out->octomap_timing.total_s};
+    results.push_back(r);
+    const std::string name = mapping::MappingMethodName(m);
+    const CollisionOutcomes& c = r.outcomes;
+    json.Set(name, "mcc", c.Mcc());
+    json.Set(name, "correct_collision_pct", c.Percent(c.correct_collision));
+    json.Set(name, "missed_collision_pct", c.Percent(c.missed_collision));
+    json.Set(name, "correct_free_pct", c.Percent(c.correct_free));
+    json.Set(name, "false_collision_pct", c.Percent(c.false_collision));
+    json.Set(name, "box_positions", static_cast<double>(c.total()));
+    json.Set(name, "runtime_s", r.runtime_s);
+    json.Set(name, "runtime_per_keyframe_ms",
+             1e3 * r.runtime_s / static_cast<double>(out->keyframes));
+    json.Set(name, "keyframes", static_cast<double>(out->keyframes));
+    json.Set(name, "frames", static_cast<double>(out->frames));
+    if (ours) {
+      const mapping::SparseMeshTiming& t = out->sparse_mesh_timing;
+      json.Set(name, "extraction_s", t.extraction_s);
+      json.Set(name, "stereo_matching_s", t.matching_s);
+      json.Set(name, "merging_s", t.merging_s);
+      json.Set(name, "meshing_s", t.meshing_s);
+      json.Set(name, "to_grid_s", t.to_grid_s);
+      json.Set(name, "points", static_cast<double>(out->points.size()));
+      json.Set(name, "observations", static_cast<double>(out->sparse_stats.TotalSelected()));
+      json.Set(name, "mesh_triangles", static_cast<double>(out->meshing.mesh.triangles.size()));
+    } else {
+      const mapping::OctomapTiming& t = out->octomap_timing;
+      json.Set(name, "disparity_s", t.disparity_s);
+      json.Set(name, "points_s", t.points_s);
+      json.Set(name, "insertion_s", t.insertion_s);
+      json.Set(name, "finish_s", t.finish_s);
+      json.Set(name, "to_grid_s", t.to_grid_s);
+      json.Set(name, "range_points", static_cast<double>(out->octomap_stats.TotalPoints()));
+    }
+  }
+  if (results.size() == 2) {
+    json.Set("comparison", "speedup", results[1].runtime_s / std::max(results[0].runtime_s, 1e-9));
+    json.Set("comparison", "mcc_gap", results[0].outcomes.Mcc() - results[1].outcomes.Mcc());
+  }
+
+  const std::string preset = ReadPreset(data);
+  std::printf("\ndata: %s (%s), %lld frames, %lld keyframes (>= %.2f m or %.1f deg apart)\n",
+              data.c_str(), preset.empty() ? "not a mav-sim preset" : preset.c_str(),
+              static_cast<long long>(out->frames), static_cast<long long>(out->keyframes),
+              keyframe_translation_m, keyframe_rotation_deg);
+  PrintTables(results, *out, preset);
+  if (out->has_sparse_mesh) {
+    const mapping::SparseMeshTiming& t = out->sparse_mesh_timing;
+    int64_t multi = 0;
+    for (const auto& p : out->points) multi += p.keyframes.size() > 1 ? 1 : 0;
+    std::printf(
+        "\nsparse-mesh stages: features %.2f s, stereo %.2f s, merge %.2f s, meshing %.2f s, "
+        "to grid %.2f s; %zu points (%lld seen from >1 keyframe), %lld observations, %zu "
+        "triangles\n",
+        t.extraction_s, t.matching_s, t.merging_s, t.meshing_s, t.to_grid_s, out->points.size(),
+        static_cast<long long>(multi), static_cast<long long>(out->sparse_stats.TotalSelected()),
+        out->meshing.mesh.triangles.size());
+  }
+  if (out->has_octomap) {
+    const mapping::OctomapTiming& t = out->octomap_timing;
+    std::printf(
+        "octomap stages: dense stereo %.2f s (%.0f ms per keyframe), points %.2f s, insertion "
+        "%.2f s, prune %.2f s, to grid %.2f s\n",
+        t.disparity_s, 1e3 * t.disparity_s / static_cast<double>(out->keyframes), t.points_s,
+        t.insertion_s, t.finish_s, t.to_grid_s);
+  }
+
+  if (Status s = MakeDirectories(out_dir); !s.ok()) return Fail(s.message());
+  std::vector<std::string> written;
+  auto write = [&](Status s, const std::string& file) {
+    if (s.ok()) written.push_back(file);
+    return s;
+  };
+  Status s;
+  if (out->has_sparse_mesh) {
+    s = write(mapping::WritePly(out_dir + "/mesh.ply", out->meshing.mesh), "mesh.ply");
+    if (s.ok()) {
+      mapping::TriangleMesh cloud;
+      for (const auto& p : out->points) cloud.vertices.push_back(p.p_world);
+      s = write(mapping::WritePly(out_dir + "/points.ply", cloud), "points.ply");
+    }
+    if (s.ok()) {
+      s = write(out->sparse_mesh_grid.WriteOctomap(out_dir + "/sparse_mesh.bt"), "sparse_mesh.bt");
+    }
+  }
+  if (s.ok() && out->has_octomap) {
+    s = write(pipeline->octomap_mapper()->WriteBinary(out_dir + "/octomap.bt"), "octomap.bt");
+  }
+  if (s.ok() && !no_figure) {
+    s = write(WriteMappingFigure(out_dir + "/mapping.png",
+                                 "mapping: " + (preset.empty() ? data : preset) + ", " +
+                                     std::to_string(out->keyframes) + " keyframes, " +
+                                     std::to_string(out->points.size()) + " points",
+                                 *out, truth),
+              "mapping.png");
+  }
+  if (s.ok() && !json_path.empty()) s = json.WriteFile(json_path);
+  if (!s.ok()) return Fail(s.message());
+  std::printf("wrote %s/{", out_dir.c_str());
+  for (size_t i = 0; i < written.size(); ++i)
+    std::printf("%s%s", i ? ", " : "", written[i].c_str());
+  std::printf("}%s\n", json_path.empty() ? "" : (" and " + json_path).c_str());
+  return 0;
+}
+
+}  // namespace mav::eval_cli

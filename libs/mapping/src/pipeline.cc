@@ -1,0 +1,209 @@
+#include "mav/mapping/pipeline.h"
+
+#include <optional>
+#include <utility>
+
+#include <opencv2/core/mat.hpp>
+
+#include "mav/common/time.h"
+
+namespace mav::mapping {
+namespace {
+
+double SecondsSince(int64_t start_ns) { return NsToSeconds(MonotonicNowNs() - start_ns); }
+
+// Validates like OctomapMapper::InsertKeyframe so a bad pair never reaches either mapper.
+Status CheckImage(const cv::Mat& image, const camera::RectifiedStereo& rig, const char* name) {
+  const std::string n = name;
+  if (image.empty()) return Status::InvalidArgument(n + ": empty image");
+  if (image.type() != CV_8UC1) {
+    return Status::InvalidArgument(n + ": expected CV_8UC1 (8-bit grey), got type " +
+                                   std::to_string(image.type()));
+  }
+  if (image.cols != rig.width || image.rows != rig.height) {
+    return Status::InvalidArgument(n + ": size " + std::to_string(image.cols) + "x" +
+                                   std::to_string(image.rows) + " differs from the rig " +
+                                   std::to_string(rig.width) + "x" + std::to_string(rig.height));
+  }
+  return Status::Ok();
+}
+
+localization::ImageView View(const cv::Mat& image) {
+  return {image.data, image.cols, image.rows, static_cast<int>(image.step[0])};
+}
+
+}  // namespace
+
+const char* MappingMethodName(MappingMethod method) {
+  switch (method) {
+    case MappingMethod::kSparseMesh:
+      return "sparse-mesh";
+    case MappingMethod::kOctomap:
+      return "octomap";
+  }
+  return "?";
+}
+
+bool MappingPipelineOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  std::string sub;
+  if (!run_sparse_mesh && !run_octomap) {
+    return fail("run_sparse_mesh/run_octomap: at least one method must run");
+  }
+  if (!keyframes.IsValid(&sub)) return fail("keyframes." + sub);
+  if (!sparse.IsValid(&sub)) return fail("sparse." + sub);
+  if (!meshing.IsValid(&sub)) return fail("meshing." + sub);
+  if (!mesh_to_grid.IsValid(&sub)) return fail("mesh_to_grid." + sub);
+  if (!octomap.IsValid(&sub)) return fail("octomap." + sub);
+  return true;
+}
+
+struct MappingPipeline::Impl {
+  camera::RectifiedStereo rig;
+  MappingPipelineOptions options;
+  KeyframeSelector selector;
+  std::optional<SparsePointCloud> sparse;
+  std::optional<OctomapMapper> octomap;
+  std::vector<geometry::SE3> keyframe_poses;
+  int64_t frames = 0;
+
+  Impl(const camera::RectifiedStereo& r, const MappingPipelineOptions& o)
+      : rig(r), options(o), selector(o.keyframes) {}
+};
+
+MappingPipeline::MappingPipeline(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+MappingPipeline::MappingPipeline(MappingPipeline&&) noexcept = default;
+MappingPipeline& MappingPipeline::operator=(MappingPipeline&&) noexcept = default;
+MappingPipeline::~MappingPipeline() = default;
+
+Result<MappingPipeline> MappingPipeline::Create(const camera::RectifiedStereo& rig,
+                                                const MappingPipelineOptions& options) {
+  std::string why;
+  if (!rig.IsValid(&why)) return Status::InvalidArgument("rig: " + why);
+  if (!options.IsValid(&why)) return Status::InvalidArgument("options." + why);
+  auto impl = std::make_unique<Impl>(rig, options);
+  if (options.run_sparse_mesh) {
+    MAV_ASSIGN_OR_RETURN(SparsePointCloud sparse, SparsePointCloud::Create(rig, options.sparse));
+    impl->sparse.emplace(std::move(sparse));
+  }
+  if (options.run_octomap) {
+    MAV_ASSIGN_OR_RETURN(OctomapMapper octomap, OctomapMapper::Create(options.octomap));
+    impl->octomap.emplace(std::move(octomap));
+  }
+  return MappingPipeline(std::move(impl));
+}
+
+Result<bool> MappingPipeline::ConsiderFrame(const geometry::SE3& T_world_cam) {
+  if (!T_world_cam.Translation().allFinite() || !T_world_cam.Rotation().coeffs().allFinite()) {
+    return Status::InvalidArgument("T_world_cam: non-finite pose");
+  }
+  ++impl_->frames;
+  return impl_->selector.Consider(T_world_cam);
+}
+
+Status MappingPipeline::InsertKeyframe(const cv::Mat& left, const cv::Mat& right,
+                                       const geometry::SE3& T_world_cam) {
+  MAV_RETURN_IF_ERROR(CheckImage(left, impl_->rig, "left"));
+  MAV_RETURN_IF_ERROR(CheckImage(right, impl_->rig, "right"));
+  if (!T_world_cam.Translation().allFinite() || !T_world_cam.Rotation().coeffs().allFinite()) {
+    return Status::InvalidArgument("T_world_cam: non-finite pose");
+  }
+  if (impl_->sparse) {
+    auto id = impl_->sparse->AddKeyframe(View(left), View(right), T_world_cam);
+    if (!id.ok()) return id.status();
+  }
+  if (impl_->octomap) {
+    MAV_RETURN_IF_ERROR(impl_->octomap->InsertKeyframe(left, right, impl_->rig, T_world_cam));
+  }
+  impl_->keyframe_poses.push_back(T_world_cam);
+  return Status::Ok();
+}
+
+Result<bool> MappingPipeline::AddFrame(const cv::Mat& left, const cv::Mat& right,
+                                       const geometry::SE3& T_world_cam) {
+  MAV_ASSIGN_OR_RETURN(const bool is_keyframe, ConsiderFrame(T_world_cam));
+  if (is_keyframe) MAV_RETURN_IF_ERROR(InsertKeyframe(left, right, T_world_cam));
+  return is_keyframe;
+}
+
+Result<MappingOutput> MappingPipeline::Finish(const GridGeometry& geometry) {
+  std::string why;
+  if (!geometry.IsValid(&why)) return Status::InvalidArgument("geometry: " + why);
+  if (impl_->keyframe_poses.empty()) {
+    return Status::FailedPrecondition("Finish: no keyframe was inserted");
+  }
+  MappingOutput out;
+  out.frames = std::max<int64_t>(impl_->frames, static_cast<int64_t>(impl_->keyframe_poses.size()));
+  out.keyframes = static_cast<int64_t>(impl_->keyframe_poses.size());
+  out.keyframe_poses = impl_->keyframe_poses;
+
+  if (impl_->sparse) {
+    const SparsePointCloud& sparse = *impl_->sparse;
+    out.has_sparse_mesh = true;
+    out.points = sparse.Points();
+    out.keyframe_views = sparse.keyframes();
+    out.sparse_stats = sparse.stats();
+    SparseMeshTiming& t = out.sparse_mesh_timing;
+    t.extraction_s = sparse.stats().TotalExtractionMs() * 1e-3;
+    t.matching_s = sparse.stats().TotalMatchingMs() * 1e-3;
+    t.merging_s = sparse.stats().TotalMergingMs() * 1e-3;
+    int64_t start = MonotonicNowNs();
+    auto meshing = BuildMesh(out.points, out.keyframe_views, impl_->options.meshing);
+    if (!meshing.ok()) {
+      return Status(meshing.status().code(), "sparse-mesh: " + meshing.status().message());
+    }
+    out.meshing = std::move(meshing).value();
+    t.meshing_s = SecondsSince(start);
+    start = MonotonicNowNs();
+    auto grid = MeshToOccupancy(out.meshing, out.points, out.keyframe_views, geometry,
+                                impl_->options.mesh_to_grid);
+    if (!grid.ok()) return Status(grid.status().code(), "sparse-mesh: " + grid.status().message());
+    out.sparse_mesh_grid = std::move(grid).value();
+    t.to_grid_s = SecondsSince(start);
+    t.total_s = sparse.stats().TotalMs() * 1e-3 + t.meshing_s + t.to_grid_s;
+  }
+
+  if (impl_->octomap) {
+    OctomapMapper& octomap = *impl_->octomap;
+    out.has_octomap = true;
+    const OctomapMapperStats& stats = octomap.Finish();
+    const int64_t start = MonotonicNowNs();
+    auto grid = octomap.ToGrid(geometry);
+    if (!grid.ok()) return Status(grid.status().code(), "octomap: " + grid.status().message());
+    out.octomap_grid = std::move(grid).value();
+    out.octomap_stats = stats;
+    OctomapTiming& t = out.octomap_timing;
+    t.to_grid_s = SecondsSince(start);
+    t.disparity_s = stats.TotalDisparityMs() * 1e-3;
+    t.points_s = stats.TotalPointsMs() * 1e-3;
+    t.insertion_s = stats.TotalInsertionMs() * 1e-3;
+    t.finish_s = stats.finish_ms * 1e-3;
+    t.total_s = stats.TotalMs() * 1e-3 + t.to_grid_s;
+  }
+  return out;
+}
+
+int64_t MappingPipeline::num_frames() const { return impl_->frames; }
+int64_t MappingPipeline::num_keyframes() const {
+  return static_cast<int64_t>(impl_->keyframe_poses.size());
+}
+const MappingPipelineOptions& MappingPipeline::options() const { return impl_->options; }
+const OctomapMapper* MappingPipeline::octomap_mapper() const {
+  return impl_->octomap ? &*impl_->octomap : nullptr;
+}
+const SparsePointCloud* MappingPipeline::sparse_points() const {
+  return impl_->sparse ? &*impl_->sparse : nullptr;
+}
+
+void MappingPipeline::Reset() {
+  impl_->selector.Reset();
+  if (impl_->sparse) impl_->sparse->Reset();
+  if (impl_->octomap) impl_->octomap->Reset();
+  impl_->keyframe_poses.clear();
+  impl_->frames = 0;
+}
+
+}  // namespace mav::mapping

@@ -4,7 +4,9 @@
 #   2. mav-simulator loads it over gRPC and replays it in real time on the DDS data plane;
 #   3. mavctl listen subscribes over DDS, checks every frame and prints what arrived;
 #   4. mav-eval localization runs the three stereo VO methods on it and prints the paper's
-#      Tables 1 and 2 beside ours.
+#      Tables 1 and 2 beside ours;
+#   5. mav-eval mapping builds both maps (sparse meshing, OctoMap + dense stereo) from the same
+#      keyframes and prints the paper's Tables 3 and 4 beside ours.
 # Environment: FRAMES (default 300), PRESET (room-easy), OUT (out/), MAV_SIM_PORT (50051).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -22,7 +24,7 @@ export MAV_DDS_DOMAIN="${MAV_DDS_DOMAIN:-$(( ($$ % 200) + 1 ))}"
 
 step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
-step "1/4 rendering $frames frames of $preset into $data"
+step "1/5 rendering $frames frames of $preset into $data"
 if [[ -f "$data/ground_truth/scenario.yaml" ]]; then
   echo "(already there; delete $data to render again)"
 else
@@ -30,7 +32,7 @@ else
 fi
 "$bin/mav-sim" info "$data"
 
-step "2/4 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
+step "2/5 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
 "$bin/mav-simulator" --port "$port" > "$out/mav-simulator.log" 2>&1 &
 sim_pid=$!
 cleanup() { kill "$sim_pid" 2>/dev/null || true; wait "$sim_pid" 2>/dev/null || true; }
@@ -43,7 +45,7 @@ done
 "$bin/mavctl" health --port "$port"
 "$bin/mavctl" sim load --euroc "$data" --port "$port"
 
-step "3/4 replaying in real time over DDS; mavctl listen reports what arrived"
+step "3/5 replaying in real time over DDS; mavctl listen reports what arrived"
 "$bin/mavctl" listen --topic all --frames "$frames" --timeout 60 &
 listen_pid=$!
 sleep 1  # let DDS discovery match the listener before the first frame
@@ -54,5 +56,8 @@ wait "$listen_pid" || listen_status=$?
 [[ $listen_status -eq 0 ]] || { echo "mavctl listen failed ($listen_status)" >&2; exit "$listen_status"; }
 
 cleanup  # the simulator's work is done; free the cores for the evaluation
-step "4/4 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
+step "4/5 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
 "$bin/mav-eval" localization --data "$data" --json "$out/localization-$preset-$frames.json"
+
+step "5/5 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
+"$bin/mav-eval" mapping --data "$data" --json "$out/mapping-$preset-$frames.json"

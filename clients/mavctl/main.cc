@@ -26,6 +26,7 @@
 
 #include "clients/mavctl/listen.h"
 #include "clients/mavctl/localization_commands.h"
+#include "clients/mavctl/mapping_commands.h"
 #include "mav/common/parse.h"
 #include "mav/common/time.h"
 #include "mav/transport/dds.h"
@@ -53,6 +54,7 @@ constexpr char kUsage[] =
     "  listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]\n"
     "  loc configure --method sparse-pixel|sparse-subpixel|dense [--euroc DIR | --simulator ADDR]\n"
     "  loc reset | loc status | loc trajectory --out FILE.tum   (port 50052)\n"
+    "  map start|reset|insert|build|occupancy|query|mesh|status  (mavctl map --help; port 50053)\n"
     "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
     "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
 
@@ -450,6 +452,7 @@ int main(int argc, char** argv) {
   if (command == "health") return HealthCommand(args);
   if (command == "listen") return ListenCommand(args);
   if (command == "loc") return mav::mavctl::LocalizationCommand(args);
+  if (command == "map") return mav::mavctl::MappingCommand(args);
   std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }

@@ -1,0 +1,436 @@
+#include "services/mapping/convert.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <sstream>
+#include <tuple>
+
+#include "mav/mapping/octomap_mapper.h"
+
+namespace mav::mapping_service {
+
+namespace {
+
+std::string Number(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+// A double option: 0 keeps `*target`; otherwise finite and in [lo, hi] (lo exclusive when
+// `lo_open`).
+Status DoubleOption(double value, double lo, bool lo_open, double hi, const std::string& field,
+                    double* target) {
+  if (value == 0.0) return Status::Ok();
+  const bool low_ok = lo_open ? value > lo : value >= lo;
+  if (!std::isfinite(value) || !low_ok || value > hi) {
+    return Status::InvalidArgument(field + ": must be " + (lo_open ? "> " : ">= ") + Number(lo) +
+                                   (std::isfinite(hi) ? " and <= " + Number(hi) : "") +
+                                   " and finite, got " + Number(value));
+  }
+  if (target != nullptr) *target = value;
+  return Status::Ok();
+}
+
+Result<camera::PinholeRadTan> CameraFromProto(const v1::CameraCalibration& camera,
+                                              const std::string& field) {
+  if (!camera.has_intrinsics()) return Status::InvalidArgument(field + ".intrinsics: not set");
+  const v1::CameraIntrinsics& k = camera.intrinsics();
+  if (k.width() == 0 || k.height() == 0 || k.width() > 65536 || k.height() > 65536) {
+    return Status::InvalidArgument(field + ".intrinsics.width: image size " +
+                                   std::to_string(k.width()) + "x" + std::to_string(k.height()) +
+                                   " is not in [1, 65536]");
+  }
+  if (!(k.fx() > 0) || !(k.fy() > 0) || !std::isfinite(k.fx()) || !std::isfinite(k.fy())) {
+    return Status::InvalidArgument(field + ".intrinsics.fx: focal lengths must be > 0 and finite");
+  }
+  camera::PinholeRadTan out;
+  out.width = static_cast<int>(k.width());
+  out.height = static_cast<int>(k.height());
+  out.fx = k.fx();
+  out.fy = k.fy();
+  out.cx = k.cx();
+  out.cy = k.cy();
+  out.k1 = k.k1();
+  out.k2 = k.k2();
+  out.p1 = k.p1();
+  out.p2 = k.p2();
+  std::string why;
+  if (!out.IsValid(&why)) return Status::InvalidArgument(field + ".intrinsics: " + why);
+  return out;
+}
+
+Eigen::AlignedBox3d BoundsOf(const mapping::GridGeometry& g) {
+  return Eigen::AlignedBox3d(g.origin, g.origin + g.size.cast<double>() * g.resolution);
+}
+
+void ToProto(const RuntimeSummary& stats, v1::RuntimeStats* out) {
+  out->set_count(stats.count);
+  out->set_mean_ms(stats.mean_ms);
+  out->set_median_ms(stats.median_ms);
+  out->set_p95_ms(stats.p95_ms);
+  out->set_max_ms(stats.max_ms);
+}
+
+}  // namespace
+
+Result<std::optional<MappingMethod>> MethodFromProto(v1::MappingMethod method,
+                                                     const std::string& field,
+                                                     bool allow_unspecified) {
+  switch (method) {
+    case v1::MAPPING_METHOD_SPARSE_MESH:
+      return std::optional<MappingMethod>(MappingMethod::kSparseMesh);
+    case v1::MAPPING_METHOD_OCTOMAP:
+      return std::optional<MappingMethod>(MappingMethod::kOctomap);
+    case v1::MAPPING_METHOD_UNSPECIFIED:
+      if (allow_unspecified) return std::optional<MappingMethod>();
+      return Status::InvalidArgument(field +
+                                     ": not set (MAPPING_METHOD_UNSPECIFIED); use SPARSE_MESH or "
+                                     "OCTOMAP");
+    default:
+      break;
+  }
+  return Status::InvalidArgument(field + ": unknown value " +
+                                 std::to_string(static_cast<int>(method)) +
+                                 " (known: SPARSE_MESH=1, OCTOMAP=2)");
+}
+
+v1::MappingMethod ToProto(MappingMethod method) {
+  return method == MappingMethod::kSparseMesh ? v1::MAPPING_METHOD_SPARSE_MESH
+                                              : v1::MAPPING_METHOD_OCTOMAP;
+}
+
+Result<PoseSource> PoseSourceFromProto(v1::PoseSource source) {
+  switch (source) {
+    case v1::POSE_SOURCE_UNSPECIFIED:
+    case v1::POSE_SOURCE_NONE:
+      return PoseSource::kNone;
+    case v1::POSE_SOURCE_LOCALIZATION:
+      return PoseSource::kLocalization;
+    case v1::POSE_SOURCE_GROUND_TRUTH:
+      return PoseSource::kGroundTruth;
+    default:
+      break;
+  }
+  return Status::InvalidArgument("pose_source: unknown value " +
+                                 std::to_string(static_cast<int>(source)) +
+                                 " (known: NONE=1, LOCALIZATION=2, GROUND_TRUTH=3)");
+}
+
+v1::PoseSource ToProto(PoseSource source) {
+  switch (source) {
+    case PoseSource::kNone:
+      return v1::POSE_SOURCE_NONE;
+    case PoseSource::kLocalization:
+      return v1::POSE_SOURCE_LOCALIZATION;
+    case PoseSource::kGroundTruth:
+      return v1::POSE_SOURCE_GROUND_TRUTH;
+  }
+  return v1::POSE_SOURCE_UNSPECIFIED;
+}
+
+Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
+                                       const SessionConfig& defaults) {
+  SessionConfig config = defaults;
+  const v1::KeyframeOptions& k = request.keyframes();
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  MAV_RETURN_IF_ERROR(DoubleOption(k.min_translation_m(), 0.0, true, kInf,
+                                   "keyframes.min_translation_m",
+                                   &config.keyframes.min_translation_m));
+  double rotation_deg = 0;
+  MAV_RETURN_IF_ERROR(DoubleOption(k.min_rotation_deg(), 0.0, true, 180.0,
+                                   "keyframes.min_rotation_deg", &rotation_deg));
+  // The proto's default is 10 deg (the library's 12 deg is tuned for mav-eval's full presets).
+  config.keyframes.min_rotation_rad = (rotation_deg == 0 ? 10.0 : rotation_deg) * M_PI / 180.0;
+  if (k.max_keyframes() > 100000) {
+    return Status::InvalidArgument("keyframes.max_keyframes: must be <= 100000, got " +
+                                   std::to_string(k.max_keyframes()));
+  }
+  config.max_keyframes = k.max_keyframes() == 0 ? 5000 : static_cast<int>(k.max_keyframes());
+  if (k.features_per_keyframe() > 10000) {
+    return Status::InvalidArgument("keyframes.features_per_keyframe: must be <= 10000, got " +
+                                   std::to_string(k.features_per_keyframe()));
+  }
+  config.features_per_keyframe =
+      k.features_per_keyframe() == 0 ? 100 : static_cast<int>(k.features_per_keyframe());
+  MAV_ASSIGN_OR_RETURN(config.pose_source, PoseSourceFromProto(request.pose_source()));
+  return config;
+}
+
+Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
+                                            const std::string& field) {
+  if (!proto.has_left()) return Status::InvalidArgument(field + ".left: not set");
+  if (!proto.has_right()) return Status::InvalidArgument(field + ".right: not set");
+  RigCalibration out;
+  out.rectified = proto.rectified();
+  MAV_ASSIGN_OR_RETURN(out.calibration.cam0, CameraFromProto(proto.left(), field + ".left"));
+  MAV_ASSIGN_OR_RETURN(out.calibration.cam1, CameraFromProto(proto.right(), field + ".right"));
+  if (!proto.left().has_t_body_cam()) {
+    return Status::InvalidArgument(field + ".left.t_body_cam: not set");
+  }
+  if (!proto.right().has_t_body_cam()) {
+    return Status::InvalidArgument(field + ".right.t_body_cam: not set");
+  }
+  MAV_ASSIGN_OR_RETURN(out.calibration.T_body_cam0,
+                       PoseFromProto(proto.left().t_body_cam(), field + ".left.t_body_cam"));
+  MAV_ASSIGN_OR_RETURN(out.calibration.T_body_cam1,
+                       PoseFromProto(proto.right().t_body_cam(), field + ".right.t_body_cam"));
+  if (out.calibration.cam0.width != out.calibration.cam1.width ||
+      out.calibration.cam0.height != out.calibration.cam1.height) {
+    return Status::InvalidArgument(field +
+                                   ".right.intrinsics.width: the right image size differs "
+                                   "from the left one");
+  }
+  if (out.rectified &&
+      (out.calibration.cam0.HasDistortion() || out.calibration.cam1.HasDistortion())) {
+    return Status::InvalidArgument(field + ".rectified: true but the cameras have distortion");
+  }
+  std::string why;
+  if (!out.calibration.IsValid(&why)) return Status::InvalidArgument(field + ": " + why);
+  return out;
+}
+
+Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& field) {
+  const v1::Vector3& p = pose.position();
+  if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) {
+    return Status::InvalidArgument(field + ".position: not finite");
+  }
+  const v1::Quaternion& q = pose.orientation();
+  const double norm = std::sqrt(q.w() * q.w() + q.x() * q.x() + q.y() * q.y() + q.z() * q.z());
+  if (!std::isfinite(norm) || std::abs(norm - 1.0) > 1e-3) {
+    return Status::InvalidArgument(field + ".orientation: norm " + Number(norm) +
+                                   ", expected a unit quaternion (w first)");
+  }
+  const Eigen::Quaterniond rotation(q.w() / norm, q.x() / norm, q.y() / norm, q.z() / norm);
+  return geometry::SE3(rotation, Eigen::Vector3d(p.x(), p.y(), p.z()));
+}
+
+Result<FrameInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
+  FrameInput out;
+  out.t_ns = pair.t_ns();
+  out.rectified = pair.rectified();
+  for (const auto& [name, image, mat] :
+       {std::tuple<const char*, const v1::Image*, cv::Mat*>{"left", &pair.left(), &out.left},
+        std::tuple<const char*, const v1::Image*, cv::Mat*>{"right", &pair.right(), &out.right}}) {
+    const std::string f = field + "." + name;
+    if (image->width() == 0 || image->height() == 0) {
+      return Status::InvalidArgument(f + ": empty image (" + std::to_string(image->width()) + "x" +
+                                     std::to_string(image->height()) + ")");
+    }
+    if (image->width() > 65536 || image->height() > 65536) {
+      return Status::InvalidArgument(f + ": " + std::to_string(image->width()) + "x" +
+                                     std::to_string(image->height()) + " is too large");
+    }
+    if (image->encoding() != v1::IMAGE_ENCODING_MONO8) {
+      return Status::InvalidArgument(f + ".encoding: must be IMAGE_ENCODING_MONO8, got " +
+                                     std::to_string(static_cast<int>(image->encoding())));
+    }
+    const uint64_t expected = static_cast<uint64_t>(image->width()) * image->height();
+    if (image->data().size() != expected) {
+      return Status::InvalidArgument(f + ".data: " + std::to_string(image->data().size()) +
+                                     " bytes, expected width*height = " + std::to_string(expected));
+    }
+    *mat = cv::Mat(static_cast<int>(image->height()), static_cast<int>(image->width()), CV_8UC1);
+    std::memcpy(mat->data, image->data().data(), expected);
+  }
+  if (out.left.size() != out.right.size()) {
+    return Status::InvalidArgument(field + ".right: " + std::to_string(out.right.cols) + "x" +
+                                   std::to_string(out.right.rows) + ", differs from the left " +
+                                   std::to_string(out.left.cols) + "x" +
+                                   std::to_string(out.left.rows));
+  }
+  return out;
+}
+
+Result<Eigen::AlignedBox3d> BoxFromProto(const v1::Box& box, const std::string& field) {
+  const Eigen::Vector3d min(box.min().x(), box.min().y(), box.min().z());
+  const Eigen::Vector3d max(box.max().x(), box.max().y(), box.max().z());
+  static constexpr const char* kAxis[3] = {"x", "y", "z"};
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(min[i])) {
+      return Status::InvalidArgument(field + ".min." + kAxis[i] + ": not finite");
+    }
+    if (!std::isfinite(max[i])) {
+      return Status::InvalidArgument(field + ".max." + kAxis[i] + ": not finite");
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    if (min[i] > max[i]) {
+      return Status::InvalidArgument(field + ": min." + kAxis[i] + " " + Number(min[i]) +
+                                     " > max." + kAxis[i] + " " + Number(max[i]));
+    }
+  }
+  return Eigen::AlignedBox3d(min, max);
+}
+
+void ToProto(const Eigen::AlignedBox3d& box, v1::Box* out) {
+  out->mutable_min()->set_x(box.min().x());
+  out->mutable_min()->set_y(box.min().y());
+  out->mutable_min()->set_z(box.min().z());
+  out->mutable_max()->set_x(box.max().x());
+  out->mutable_max()->set_y(box.max().y());
+  out->mutable_max()->set_z(box.max().z());
+}
+
+Result<BuildRequest> BuildFromProto(const v1::BuildMapRequest& request) {
+  BuildRequest out;
+  MAV_ASSIGN_OR_RETURN(std::optional<MappingMethod> method,
+                       MethodFromProto(request.method(), "method", false));
+  out.method = *method;
+  const double resolution = request.resolution_m();
+  if (resolution != 0.0 && (!std::isfinite(resolution) || resolution < 0.01 || resolution > 2.0)) {
+    return Status::InvalidArgument("resolution_m: must be in [0.01, 2] m, got " +
+                                   Number(resolution));
+  }
+  out.resolution_m = resolution == 0.0 ? 0.05 : resolution;
+  if (request.has_bounds()) {
+    MAV_ASSIGN_OR_RETURN(Eigen::AlignedBox3d bounds, BoxFromProto(request.bounds(), "bounds"));
+    if ((bounds.max() - bounds.min()).minCoeff() <= 0.0) {
+      return Status::InvalidArgument("bounds: empty box (zero extent on an axis)");
+    }
+    out.bounds = bounds;
+  }
+  switch (request.unknown()) {
+    case v1::UNKNOWN_HANDLING_UNSPECIFIED:
+    case v1::UNKNOWN_HANDLING_KEEP_UNKNOWN:
+      out.unknown = UnknownHandling::kKeepUnknown;
+      break;
+    case v1::UNKNOWN_HANDLING_AS_OCCUPIED:
+      out.unknown = UnknownHandling::kAsOccupied;
+      break;
+    case v1::UNKNOWN_HANDLING_AS_FREE:
+      out.unknown = UnknownHandling::kAsFree;
+      break;
+    default:
+      return Status::InvalidArgument("unknown: unknown value " +
+                                     std::to_string(static_cast<int>(request.unknown())));
+  }
+
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const v1::SparseMeshOptions& s = request.sparse_mesh();
+  MAV_RETURN_IF_ERROR(DoubleOption(s.free_space_weight(), 0.0, true, kInf,
+                                   "sparse_mesh.free_space_weight", &out.meshing.alpha_vis));
+  MAV_RETURN_IF_ERROR(
+      DoubleOption(s.inside_weight(), 0.0, true, kInf, "sparse_mesh.inside_weight", nullptr));
+  // The mesher gives a line of sight one weight, alpha_vis, for its free-space facets and for the
+  // cell behind the point (Labatut et al. 2007): a separate inside weight is not a free choice.
+  if (s.inside_weight() != 0.0 && s.inside_weight() != out.meshing.alpha_vis) {
+    return Status::InvalidArgument(
+        "sparse_mesh.inside_weight: the mesher uses free_space_weight (alpha_vis = " +
+        Number(out.meshing.alpha_vis) + ") for the cell behind a point too; leave 0 or equal");
+  }
+  if (s.smoothness_weight() < 0.0 || !std::isfinite(s.smoothness_weight())) {
+    return Status::InvalidArgument("sparse_mesh.smoothness_weight: must be >= 0 and finite, got " +
+                                   Number(s.smoothness_weight()));
+  }
+  if (s.smoothness_weight() != 0.0) out.meshing.lambda_quality = s.smoothness_weight();
+  if (s.min_visibility() > 100) {
+    return Status::InvalidArgument("sparse_mesh.min_visibility: must be in [1, 100], got " +
+                                   std::to_string(s.min_visibility()));
+  }
+  out.min_visibility = s.min_visibility() == 0 ? 1 : static_cast<int>(s.min_visibility());
+  MAV_RETURN_IF_ERROR(DoubleOption(s.max_ray_length_m(), 0.0, true, kInf,
+                                   "sparse_mesh.max_ray_length_m", &out.meshing.max_ray_length));
+
+  // The baseline integrates every keyframe as it arrives (dense stereo + ray casting), with the
+  // library's options; a build only samples the octree. Per-build values are validated and must
+  // equal the values in use (or be 0).
+  const v1::OctomapOptions& o = request.octomap();
+  const mapping::OctomapMapperOptions used;
+  auto same = [&](double value, double in_use, const std::string& field) -> Status {
+    if (value == 0.0 || value == in_use) return Status::Ok();
+    return Status::InvalidArgument(field +
+                                   ": the OctoMap baseline integrates keyframes as they "
+                                   "arrive with " +
+                                   Number(in_use) + "; a build cannot change it (leave 0)");
+  };
+  MAV_RETURN_IF_ERROR(
+      DoubleOption(o.max_range_m(), 0.0, true, kInf, "octomap.max_range_m", nullptr));
+  MAV_RETURN_IF_ERROR(same(o.max_range_m(), used.max_range_m, "octomap.max_range_m"));
+  if (o.prob_hit() != 0.0 && !(o.prob_hit() > 0.5 && o.prob_hit() < 1.0)) {
+    return Status::InvalidArgument("octomap.prob_hit: must be in (0.5, 1), got " +
+                                   Number(o.prob_hit()));
+  }
+  MAV_RETURN_IF_ERROR(same(o.prob_hit(), used.prob_hit, "octomap.prob_hit"));
+  if (o.prob_miss() != 0.0 && !(o.prob_miss() > 0.0 && o.prob_miss() < 0.5)) {
+    return Status::InvalidArgument("octomap.prob_miss: must be in (0, 0.5), got " +
+                                   Number(o.prob_miss()));
+  }
+  MAV_RETURN_IF_ERROR(same(o.prob_miss(), used.prob_miss, "octomap.prob_miss"));
+  if (o.num_disparities() % 16 != 0 || o.num_disparities() > 512) {
+    return Status::InvalidArgument(
+        "octomap.num_disparities: must be a multiple of 16 in [16, 512], got " +
+        std::to_string(o.num_disparities()));
+  }
+  MAV_RETURN_IF_ERROR(same(o.num_disparities(), used.num_disparities, "octomap.num_disparities"));
+  if (o.pixel_step() > 64) {
+    return Status::InvalidArgument("octomap.pixel_step: must be in [1, 64], got " +
+                                   std::to_string(o.pixel_step()));
+  }
+  MAV_RETURN_IF_ERROR(same(o.pixel_step(), used.pixel_stride, "octomap.pixel_step"));
+  return out;
+}
+
+void ToProto(const MapStats& stats, v1::BuildMapResponse* out) {
+  out->set_method(ToProto(stats.method));
+  out->set_keyframes(stats.keyframes);
+  out->set_points(stats.points);
+  out->set_tetrahedra(stats.tetrahedra);
+  out->set_mesh_vertices(stats.mesh_vertices);
+  out->set_mesh_faces(stats.mesh_faces);
+  v1::OccupancyStats* o = out->mutable_occupancy();
+  o->set_resolution_m(stats.geometry.resolution);
+  ToProto(BoundsOf(stats.geometry), o->mutable_bounds());
+  o->set_occupied_voxels(static_cast<uint64_t>(stats.occupied_voxels));
+  o->set_free_voxels(static_cast<uint64_t>(stats.free_voxels));
+  o->set_unknown_voxels(static_cast<uint64_t>(stats.unknown_voxels));
+  v1::MappingTiming* t = out->mutable_timing();
+  t->set_total_ms(stats.timing.total_ms);
+  t->set_features_ms(stats.timing.features_ms);
+  t->set_dense_stereo_ms(stats.timing.dense_stereo_ms);
+  t->set_delaunay_ms(stats.timing.delaunay_ms);
+  t->set_graph_cut_ms(stats.timing.graph_cut_ms);
+  t->set_surface_ms(stats.timing.surface_ms);
+  t->set_insertion_ms(stats.timing.insertion_ms);
+  t->set_rasterize_ms(stats.timing.rasterize_ms);
+}
+
+void ToProto(const KeyframeResult& result, v1::InsertKeyframeResponse* out) {
+  out->set_accepted(result.accepted);
+  out->set_keyframe_index(result.keyframe_index);
+  out->set_features(result.features);
+  out->set_points_total(result.points_total);
+  out->set_processing_ms(result.processing_ms);
+}
+
+void ToProto(const MapperStatus& status, v1::MappingStatus* out) {
+  out->set_session_active(status.session_active);
+  out->set_pose_source(ToProto(status.pose_source));
+  out->set_frames_seen(status.frames_seen);
+  out->set_keyframes(status.keyframes);
+  out->set_points(status.points);
+  out->set_frames_without_pose(status.frames_without_pose);
+  out->set_building(status.building);
+  if (status.building) {
+    out->mutable_build_progress()->set_stage(status.build_stage);
+    out->mutable_build_progress()->set_fraction(status.build_fraction);
+    out->mutable_build_progress()->set_elapsed_s(status.build_elapsed_s);
+  }
+  for (const MapStats& map : status.maps) ToProto(map, out->add_maps());
+  ToProto(status.keyframe_ms, out->mutable_keyframe_ms());
+}
+
+v1::CollisionState ToProto(mapping::BoxQuery::Answer answer, bool unknown_is_collision) {
+  switch (answer) {
+    case mapping::BoxQuery::Answer::kFree:
+      return v1::COLLISION_STATE_FREE;
+    case mapping::BoxQuery::Answer::kCollision:
+      return v1::COLLISION_STATE_COLLISION;
+    case mapping::BoxQuery::Answer::kUnknown:
+      return unknown_is_collision ? v1::COLLISION_STATE_COLLISION : v1::COLLISION_STATE_UNKNOWN;
+  }
+  return v1::COLLISION_STATE_UNSPECIFIED;
+}
+
+}  // namespace mav::mapping_service

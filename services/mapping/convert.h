@@ -1,0 +1,69 @@
+#pragma once
+// mav.v1 mapping messages <-> the mapping service's domain types (mapper.h). Validation of
+// request fields happens here, with messages that start with the field path as the request spells
+// it ("boxes[2].min.x: not finite", "resolution_m: ...", "stereo.left.data: ...").
+
+#include <optional>
+#include <string>
+
+#include <Eigen/Geometry>
+
+#include "mav/v1/common.pb.h"
+#include "mav/v1/mapping.pb.h"
+
+#include "mav/camera/stereo.h"
+#include "mav/common/status.h"
+#include "mav/geometry/se3.h"
+#include "mav/mapping/collision_eval.h"
+#include "services/mapping/mapper.h"
+
+namespace mav::mapping_service {
+
+// MappingMethod -> library method. UNSPECIFIED: nullopt when `allow_unspecified` (= "the most
+// recent build"), else InvalidArgument "<field>: not set ...". Unknown values: InvalidArgument.
+Result<std::optional<MappingMethod>> MethodFromProto(v1::MappingMethod method,
+                                                     const std::string& field,
+                                                     bool allow_unspecified);
+v1::MappingMethod ToProto(MappingMethod method);
+
+Result<PoseSource> PoseSourceFromProto(v1::PoseSource source);
+v1::PoseSource ToProto(PoseSource source);
+
+// Everything of a StartSessionRequest except the calibration (resolved by the service): keyframe
+// rule and limits ("keyframes.min_translation_m: ..."), pose source. `defaults` carries the
+// server's settings that the request does not have (queue length, pose wait).
+Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
+                                       const SessionConfig& defaults);
+
+// A stereo rig from the proto; `field` prefixes error messages.
+struct RigCalibration {
+  camera::StereoCalibration calibration;
+  bool rectified = false;
+};
+Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
+                                            const std::string& field);
+
+// A Pose validated as common.proto says: finite position, quaternion norm within 1e-3 of 1
+// (then normalised). InvalidArgument "<field>.position: not finite" / "<field>.orientation: ...".
+Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& field);
+
+// A StereoPair as a FrameInput (pixels copied). InvalidArgument naming "<field>.left..." for an
+// empty image, an encoding other than MONO8, data size != width*height, or left/right sizes that
+// differ. The size against the calibration is checked by the Mapper.
+Result<FrameInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
+
+// A Box validated as common.proto says: "<field>.min.x: not finite", "<field>: min.z 3 > max.z 1".
+Result<Eigen::AlignedBox3d> BoxFromProto(const v1::Box& box, const std::string& field);
+void ToProto(const Eigen::AlignedBox3d& box, v1::Box* out);
+
+// A BuildMapRequest: method (not UNSPECIFIED), resolution_m ([0.01, 2], 0 = 0.05), bounds,
+// unknown handling, sparse_mesh options (0 = library default; ranges as in the proto) and the
+// octomap options (validated; see docs/services.md for which per-build values are honoured).
+Result<BuildRequest> BuildFromProto(const v1::BuildMapRequest& request);
+
+void ToProto(const MapStats& stats, v1::BuildMapResponse* out);
+void ToProto(const KeyframeResult& result, v1::InsertKeyframeResponse* out);
+void ToProto(const MapperStatus& status, v1::MappingStatus* out);
+v1::CollisionState ToProto(mapping::BoxQuery::Answer answer, bool unknown_is_collision);
+
+}  // namespace mav::mapping_service

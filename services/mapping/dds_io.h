@@ -1,0 +1,92 @@
+#pragma once
+// The mapping service's data plane (docs/contracts.md), input only:
+//   in  mav/sensors/stereo     mav_dds_StereoFrame        Qos::SensorStream() (keep-last 4)
+//   in  mav/sim/ground_truth   mav_dds_GroundTruthState   Qos::State() (pose source GROUND_TRUTH)
+//   in  mav/localization/pose  mav_dds_PoseWithCovariance Qos::State() (pose source LOCALIZATION)
+// The readers exist only while a session with DDS input is active (StartSession with a pose
+// source and without disable_dds_input): an idle service is no subscriber, so a simulator waiting
+// for its subscribers does not count it.
+// One reader thread waits for frames (100 ms polls), takes every pose sample first (so a frame
+// finds the poses published before it), then the frames; checks each frame (size, CRC-32),
+// copies its pixels and hands it to Mapper::SubmitLiveFrame, which never blocks.
+// Localization poses with child_frame_id "cam0" are turned into body poses with the session's
+// T_body_cam0; poses whose tracking state is not OK/INITIALIZING are ignored (a LOST pose is the
+// last good one held, not the pose at its t_ns).
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "mav_sensors.h"
+#include "mav_state.h"
+
+#include "mav/transport/dds.h"
+#include "services/mapping/mapper.h"
+
+namespace mav::mapping_service {
+
+// Copies a frame's pixels (check it first with services::CheckStereoFrame,
+// services/common/dds_codec.h).
+FrameInput FromDds(const mav_dds_StereoFrame& frame);
+
+// T_world_body of the samples.
+geometry::SE3 PoseFromDds(const mav_dds_GroundTruthState& state);
+geometry::SE3 PoseFromDds(const mav_dds_PoseWithCovariance& pose);
+
+// Switches the live input on and off (DDS in production; absent in contract tests).
+class InputControl {
+ public:
+  virtual ~InputControl() = default;
+  // enabled: subscribe to the stereo frames and to the poses of `source` (kNone: stereo only).
+  virtual Status SetInput(bool enabled, PoseSource source) = 0;
+  virtual bool input_enabled() const = 0;
+};
+
+class DdsIo : public InputControl {
+ public:
+  static Result<std::unique_ptr<DdsIo>> Create(const transport::DdsOptions& options);
+  ~DdsIo() override;
+
+  // The mapper that receives live frames and poses (not owned). Call once, before SetInput(true);
+  // switch the input off before the mapper is destroyed.
+  void Attach(Mapper* mapper) { mapper_ = mapper; }
+
+  Status SetInput(bool enabled, PoseSource source) override;
+  bool input_enabled() const override;
+
+  uint64_t frames_received() const { return frames_received_.load(); }
+  uint64_t poses_received() const { return poses_received_.load(); }
+
+ private:
+  using StereoTopic = transport::Topic<mav_dds_StereoFrame>;
+  using GroundTruthTopic = transport::Topic<mav_dds_GroundTruthState>;
+  using PoseTopic = transport::Topic<mav_dds_PoseWithCovariance>;
+  DdsIo(transport::Participant participant, StereoTopic stereo_topic,
+        GroundTruthTopic ground_truth_topic, PoseTopic pose_topic);
+  void ReadLoop();
+  void TakePoses();
+  void StopReaderLocked();
+
+  Mapper* mapper_ = nullptr;
+  // Declaration order = reverse destruction order: readers, topics, participant.
+  transport::Participant participant_;
+  StereoTopic stereo_topic_;
+  GroundTruthTopic ground_truth_topic_;
+  PoseTopic pose_topic_;
+
+  mutable std::mutex control_mutex_;  // serialises SetInput
+  std::optional<transport::Reader<mav_dds_StereoFrame>> stereo_reader_;
+  std::optional<transport::Reader<mav_dds_GroundTruthState>> ground_truth_reader_;
+  std::optional<transport::Reader<mav_dds_PoseWithCovariance>> pose_reader_;
+  std::thread reader_thread_;
+  std::atomic<bool> stop_reader_{false};
+
+  std::atomic<uint64_t> frames_received_{0};
+  std::atomic<uint64_t> poses_received_{0};
+};
+
+}  // namespace mav::mapping_service

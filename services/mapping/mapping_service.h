@@ -1,0 +1,75 @@
+#pragma once
+// The gRPC Mapping service (protos/mav/v1/mapping.proto): a thin adapter from RPCs to the Mapper
+// (mapper.h). Status codes follow docs/contracts.md ("Mapping"): INVALID_ARGUMENT naming the
+// field; FAILED_PRECONDITION without a session or with no keyframes ("empty map");
+// NOT_FOUND for queries/downloads of a map that was never built; RESOURCE_EXHAUSTED when a build
+// is running, a limit is reached or the grid would exceed the voxel limit; DEADLINE_EXCEEDED when
+// a build outlives the client's deadline; NOT_FOUND / UNAVAILABLE / FAILED_PRECONDITION from the
+// calibration source.
+
+#include <cstdint>
+#include <string>
+
+#include "mav/v1/mapping.grpc.pb.h"
+
+#include "mav/common/status.h"
+#include "services/mapping/convert.h"
+#include "services/mapping/dds_io.h"
+#include "services/mapping/mapper.h"
+
+namespace mav::mapping_service {
+
+struct MappingServiceOptions {
+  // Deadline of the GetCalibration call to a simulator calibration source (contract: 2 s).
+  int64_t calibration_timeout_ms = 2000;
+  // Server-side settings of every session (not in StartSessionRequest).
+  int64_t queue_length = 16;    // live keyframes waiting for the worker
+  int64_t pose_wait_ms = 2000;  // longest a live frame waits for its pose
+  int64_t max_voxels = 50'000'000;
+
+  bool IsValid(std::string* why) const;
+};
+
+// Resolves a CalibrationSource: inline (validated), an EuRoC directory (NotFound when missing,
+// InvalidArgument naming file and key when malformed), or a simulator's GetCalibration
+// (Unavailable when unreachable, FailedPrecondition when it has nothing loaded). Messages start
+// with the field path "calibration...".
+Result<RigCalibration> ResolveCalibration(const v1::CalibrationSource& source, int64_t timeout_ms);
+
+class MappingService final : public v1::Mapping::Service {
+ public:
+  // `mapper` (not owned) must outlive the service; `input` (not owned, may be null: no live input,
+  // e.g. in contract tests) is switched on by StartSession for a DDS pose source unless
+  // disable_dds_input.
+  MappingService(Mapper* mapper, InputControl* input, MappingServiceOptions options = {});
+
+  grpc::Status StartSession(grpc::ServerContext* context, const v1::StartSessionRequest* request,
+                            v1::MappingStatus* response) override;
+  grpc::Status Reset(grpc::ServerContext* context, const v1::MappingResetRequest* request,
+                     v1::MappingStatus* response) override;
+  grpc::Status InsertKeyframe(grpc::ServerContext* context,
+                              const v1::InsertKeyframeRequest* request,
+                              v1::InsertKeyframeResponse* response) override;
+  grpc::Status BuildMap(grpc::ServerContext* context, const v1::BuildMapRequest* request,
+                        v1::BuildMapResponse* response) override;
+  grpc::Status GetOccupancy(grpc::ServerContext* context, const v1::GetOccupancyRequest* request,
+                            grpc::ServerWriter<v1::OccupancyChunk>* writer) override;
+  grpc::Status QueryCollision(grpc::ServerContext* context,
+                              const v1::QueryCollisionRequest* request,
+                              v1::QueryCollisionResponse* response) override;
+  grpc::Status ExportMesh(grpc::ServerContext* context, const v1::ExportMeshRequest* request,
+                          grpc::ServerWriter<v1::FileChunk>* writer) override;
+  grpc::Status GetStatus(grpc::ServerContext* context, const v1::MappingGetStatusRequest* request,
+                         v1::MappingStatus* response) override;
+
+  // StartSession without an RPC (main.cc's start-up flags).
+  grpc::Status ApplyStartSession(const v1::StartSessionRequest& request,
+                                 v1::MappingStatus* response);
+
+ private:
+  Mapper* mapper_;
+  InputControl* input_;
+  MappingServiceOptions options_;
+};
+
+}  // namespace mav::mapping_service

@@ -1,0 +1,763 @@
+// mav.v1.Mapping: every RPC with good and bad input, through an in-process channel and a real
+// loopback port (health, a deadline), plus the gRPC-free pieces of the service: the pose matcher
+// (ground-truth interpolation, exact match of localization poses, the drop rules) and the DDS
+// sample checks. Keyframes are rendered by libs/sim (room-easy, ideal rectified rig) with their
+// exact ground-truth poses.
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+#include <octomap/OcTree.h>
+#include <opencv2/core/mat.hpp>
+
+#include "mav/v1/mapping.grpc.pb.h"
+
+#include "mav/common/file.h"
+#include "mav/mapping/mesh.h"
+#include "mav/sim/occupancy.h"
+#include "mav/sim/scenario.h"
+#include "mav/transport/grpc_server.h"
+#include "services/common/dds_codec.h"
+#include "services/mapping/convert.h"
+#include "services/mapping/dds_io.h"
+#include "services/mapping/mapper.h"
+#include "services/mapping/mapping_service.h"
+
+namespace mav::mapping_service {
+namespace {
+
+using grpc::StatusCode;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::chrono::system_clock::time_point Deadline(double seconds) {
+  return std::chrono::system_clock::now() +
+         std::chrono::milliseconds(static_cast<int64_t>(seconds * 1000));
+}
+
+void SetPose(const geometry::SE3& pose, v1::Pose* out) {
+  const Eigen::Vector3d& t = pose.Translation();
+  const Eigen::Quaterniond& q = pose.Rotation();
+  out->mutable_position()->set_x(t.x());
+  out->mutable_position()->set_y(t.y());
+  out->mutable_position()->set_z(t.z());
+  out->mutable_orientation()->set_w(q.w());
+  out->mutable_orientation()->set_x(q.x());
+  out->mutable_orientation()->set_y(q.y());
+  out->mutable_orientation()->set_z(q.z());
+}
+
+void SetImage(const cv::Mat& image, v1::Image* out) {
+  out->set_width(static_cast<uint32_t>(image.cols));
+  out->set_height(static_cast<uint32_t>(image.rows));
+  out->set_encoding(v1::IMAGE_ENCODING_MONO8);
+  out->set_data(std::string(reinterpret_cast<const char*>(image.data), image.total()));
+}
+
+void SetCamera(const camera::PinholeRadTan& c, const geometry::SE3& T_body_cam,
+               v1::CameraCalibration* out) {
+  v1::CameraIntrinsics* k = out->mutable_intrinsics();
+  k->set_width(c.width);
+  k->set_height(c.height);
+  k->set_fx(c.fx);
+  k->set_fy(c.fy);
+  k->set_cx(c.cx);
+  k->set_cy(c.cy);
+  k->set_k1(c.k1);
+  k->set_k2(c.k2);
+  k->set_p1(c.p1);
+  k->set_p2(c.p2);
+  SetPose(T_body_cam, out->mutable_t_body_cam());
+}
+
+v1::Box MakeBox(double x0, double y0, double z0, double x1, double y1, double z1) {
+  v1::Box box;
+  box.mutable_min()->set_x(x0);
+  box.mutable_min()->set_y(y0);
+  box.mutable_min()->set_z(z0);
+  box.mutable_max()->set_x(x1);
+  box.mutable_max()->set_y(y1);
+  box.mutable_max()->set_z(z1);
+  return box;
+}
+
+// Rendered once for the whole suite: keyframes of room-easy with their ground-truth poses.
+struct Data {
+  camera::StereoCalibration calibration;
+  struct Frame {
+    int64_t t_ns = 0;
+    cv::Mat left, right;
+    geometry::SE3 T_world_body;
+  };
+  std::vector<Frame> frames;
+};
+
+const Data& TestData() {
+  static const Data* data = [] {
+    auto* d = new Data;
+    sim::ScenarioOptions options;
+    options.preset = "room-easy";
+    options.frames = 120;
+    options.rectified = true;
+    Result<sim::Scenario> scenario = sim::Scenario::Create(options);
+    MAV_CHECK(scenario.ok()) << scenario.status().ToString();
+    d->calibration = scenario->calibration();
+    for (int64_t k = 0; k < 120; k += 12) {
+      Data::Frame f;
+      f.t_ns = scenario->FrameTimeNs(k);
+      scenario->RenderStereo(k, &f.left, &f.right);
+      f.T_world_body = scenario->StateAt(f.t_ns).T_world_body;
+      d->frames.push_back(std::move(f));
+    }
+    return d;
+  }();
+  return *data;
+}
+
+class MappingContractTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    mapper_ = std::make_unique<Mapper>();
+    MappingServiceOptions options;
+    options.max_voxels = 20'000'000;
+    service_ = std::make_unique<MappingService>(mapper_.get(), nullptr, options);
+    transport::ServerOptions server_options;
+    server_options.port = 0;
+    auto server = transport::GrpcServer::Start(server_options, {service_.get()},
+                                               {v1::Mapping::service_full_name()});
+    ASSERT_TRUE(server.ok()) << server.status().ToString();
+    server_ = std::move(*server);
+    stub_ = v1::Mapping::NewStub(server_->InProcessChannel());
+  }
+  void TearDown() override {
+    server_->Shutdown();
+    mapper_->Shutdown();
+  }
+
+  v1::StartSessionRequest SessionRequest() const {
+    const Data& data = TestData();
+    v1::StartSessionRequest request;
+    v1::StereoCalibration* c = request.mutable_calibration()->mutable_calibration();
+    SetCamera(data.calibration.cam0, data.calibration.T_body_cam0, c->mutable_left());
+    SetCamera(data.calibration.cam1, data.calibration.T_body_cam1, c->mutable_right());
+    c->set_rectified(true);
+    request.set_pose_source(v1::POSE_SOURCE_NONE);
+    return request;
+  }
+
+  grpc::Status StartSession(const v1::StartSessionRequest& request,
+                            v1::MappingStatus* status = nullptr) {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(5));
+    v1::MappingStatus ignored;
+    return stub_->StartSession(&context, request, status != nullptr ? status : &ignored);
+  }
+
+  v1::InsertKeyframeRequest KeyframeRequest(size_t i, bool force) const {
+    const Data::Frame& f = TestData().frames.at(i);
+    v1::InsertKeyframeRequest request;
+    request.mutable_stereo()->set_t_ns(f.t_ns);
+    SetImage(f.left, request.mutable_stereo()->mutable_left());
+    SetImage(f.right, request.mutable_stereo()->mutable_right());
+    request.mutable_stereo()->set_rectified(true);
+    SetPose(f.T_world_body, request.mutable_t_world_body());
+    request.set_force(force);
+    return request;
+  }
+
+  grpc::Status Insert(const v1::InsertKeyframeRequest& request,
+                      v1::InsertKeyframeResponse* response = nullptr) {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(20));
+    v1::InsertKeyframeResponse ignored;
+    return stub_->InsertKeyframe(&context, request, response != nullptr ? response : &ignored);
+  }
+
+  grpc::Status Build(const v1::BuildMapRequest& request, v1::BuildMapResponse* response = nullptr,
+                     double deadline_s = 60) {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(deadline_s));
+    v1::BuildMapResponse ignored;
+    return stub_->BuildMap(&context, request, response != nullptr ? response : &ignored);
+  }
+
+  grpc::Status Query(const v1::QueryCollisionRequest& request,
+                     v1::QueryCollisionResponse* response = nullptr) {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(5));
+    v1::QueryCollisionResponse ignored;
+    return stub_->QueryCollision(&context, request, response != nullptr ? response : &ignored);
+  }
+
+  // Downloads the occupancy map; returns the status and fills the bytes and chunk count.
+  grpc::Status Occupancy(const v1::GetOccupancyRequest& request, std::string* bytes,
+                         int* chunks = nullptr, v1::OccupancyChunk* first = nullptr) {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(30));
+    auto reader = stub_->GetOccupancy(&context, request);
+    v1::OccupancyChunk chunk;
+    int n = 0;
+    bytes->clear();
+    while (reader->Read(&chunk)) {
+      EXPECT_EQ(chunk.chunk().offset(), bytes->size());
+      if (n == 0 && first != nullptr) *first = chunk;
+      bytes->append(chunk.chunk().data());
+      ++n;
+      if (chunk.chunk().last()) {
+        EXPECT_EQ(bytes->size(), chunk.chunk().total_size());
+      }
+    }
+    if (chunks != nullptr) *chunks = n;
+    return reader->Finish();
+  }
+
+  grpc::Status Mesh(const v1::ExportMeshRequest& request, std::string* bytes) {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(30));
+    auto reader = stub_->ExportMesh(&context, request);
+    v1::FileChunk chunk;
+    bytes->clear();
+    while (reader->Read(&chunk)) {
+      EXPECT_EQ(chunk.offset(), bytes->size());
+      bytes->append(chunk.data());
+    }
+    return reader->Finish();
+  }
+
+  // Starts a session and inserts every rendered frame as a forced keyframe.
+  void InsertAll() {
+    ASSERT_TRUE(StartSession(SessionRequest()).ok());
+    for (size_t i = 0; i < TestData().frames.size(); ++i) {
+      v1::InsertKeyframeResponse response;
+      const grpc::Status status = Insert(KeyframeRequest(i, true), &response);
+      ASSERT_TRUE(status.ok()) << status.error_message();
+      ASSERT_TRUE(response.accepted());
+      EXPECT_EQ(response.keyframe_index(), i);
+    }
+  }
+
+  std::unique_ptr<Mapper> mapper_;
+  std::unique_ptr<MappingService> service_;
+  std::unique_ptr<transport::GrpcServer> server_;
+  std::unique_ptr<v1::Mapping::Stub> stub_;
+};
+
+#define EXPECT_CODE(expr, code, text)                                          \
+  do {                                                                         \
+    const grpc::Status s_ = (expr);                                            \
+    EXPECT_EQ(s_.error_code(), code) << s_.error_message();                    \
+    EXPECT_NE(s_.error_message().find(text), std::string::npos)                \
+        << "message '" << s_.error_message() << "' does not contain " << text; \
+  } while (false)
+
+TEST_F(MappingContractTest, GetStatusAlwaysSucceeds) {
+  grpc::ClientContext context;
+  context.set_deadline(Deadline(2));
+  v1::MappingStatus status;
+  ASSERT_TRUE(stub_->GetStatus(&context, v1::MappingGetStatusRequest(), &status).ok());
+  EXPECT_FALSE(status.session_active());
+  EXPECT_EQ(status.keyframes(), 0u);
+  EXPECT_EQ(status.maps_size(), 0);
+}
+
+TEST_F(MappingContractTest, EverythingButStartSessionNeedsASession) {
+  {
+    grpc::ClientContext context;
+    v1::MappingStatus status;
+    EXPECT_CODE(stub_->Reset(&context, v1::MappingResetRequest(), &status),
+                StatusCode::FAILED_PRECONDITION, "StartSession");
+  }
+  EXPECT_CODE(Insert(KeyframeRequest(0, true)), StatusCode::FAILED_PRECONDITION, "StartSession");
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  EXPECT_CODE(Build(build), StatusCode::FAILED_PRECONDITION, "StartSession");
+}
+
+TEST_F(MappingContractTest, StartSessionValidatesNamingTheField) {
+  v1::StartSessionRequest request = SessionRequest();
+  request.clear_calibration();
+  EXPECT_CODE(StartSession(request), StatusCode::INVALID_ARGUMENT, "calibration: not set");
+
+  request = SessionRequest();
+  request.mutable_keyframes()->set_min_translation_m(-1);
+  EXPECT_CODE(StartSession(request), StatusCode::INVALID_ARGUMENT, "keyframes.min_translation_m");
+
+  request = SessionRequest();
+  request.mutable_keyframes()->set_min_rotation_deg(kNaN);
+  EXPECT_CODE(StartSession(request), StatusCode::INVALID_ARGUMENT, "keyframes.min_rotation_deg");
+
+  request = SessionRequest();
+  request.mutable_keyframes()->set_features_per_keyframe(10001);
+  EXPECT_CODE(StartSession(request), StatusCode::INVALID_ARGUMENT,
+              "keyframes.features_per_keyframe");
+
+  request = SessionRequest();
+  request.mutable_calibration()
+      ->mutable_calibration()
+      ->mutable_left()
+      ->mutable_intrinsics()
+      ->set_fx(0);
+  EXPECT_CODE(StartSession(request), StatusCode::INVALID_ARGUMENT,
+              "calibration.calibration.left.intrinsics.fx");
+
+  request = SessionRequest();
+  request.mutable_calibration()
+      ->mutable_calibration()
+      ->mutable_right()
+      ->mutable_t_body_cam()
+      ->mutable_orientation()
+      ->set_w(3);
+  EXPECT_CODE(StartSession(request), StatusCode::INVALID_ARGUMENT,
+              "calibration.calibration.right.t_body_cam.orientation");
+
+  request = SessionRequest();
+  request.set_pose_source(static_cast<v1::PoseSource>(42));
+  EXPECT_CODE(StartSession(request), StatusCode::INVALID_ARGUMENT, "pose_source");
+
+  request = SessionRequest();
+  request.mutable_calibration()->set_euroc_directory("/nonexistent/mav-mapping-test");
+  EXPECT_CODE(StartSession(request), StatusCode::NOT_FOUND, "calibration.euroc_directory");
+
+  request = SessionRequest();
+  request.mutable_calibration()->set_simulator_address("127.0.0.1:1");
+  EXPECT_CODE(StartSession(request), StatusCode::UNAVAILABLE, "calibration.simulator_address");
+
+  v1::MappingStatus status;
+  ASSERT_TRUE(StartSession(SessionRequest(), &status).ok());
+  EXPECT_TRUE(status.session_active());
+  EXPECT_EQ(status.pose_source(), v1::POSE_SOURCE_NONE);
+}
+
+TEST_F(MappingContractTest, AnEmptyMapCannotBeBuiltNorQueried) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  EXPECT_CODE(Build(build), StatusCode::FAILED_PRECONDITION, "empty map");
+  build.set_method(v1::MAPPING_METHOD_OCTOMAP);
+  EXPECT_CODE(Build(build), StatusCode::FAILED_PRECONDITION, "empty map");
+
+  v1::QueryCollisionRequest query;
+  *query.add_boxes() = MakeBox(0, 0, 0, 1, 1, 1);
+  EXPECT_CODE(Query(query), StatusCode::NOT_FOUND, "BuildMap");
+  std::string bytes;
+  EXPECT_CODE(Occupancy(v1::GetOccupancyRequest(), &bytes), StatusCode::NOT_FOUND, "BuildMap");
+  EXPECT_CODE(Mesh(v1::ExportMeshRequest(), &bytes), StatusCode::NOT_FOUND, "sparse-mesh");
+}
+
+TEST_F(MappingContractTest, InsertKeyframeValidatesImagesAndPose) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  v1::InsertKeyframeRequest request = KeyframeRequest(0, true);
+  request.clear_stereo();
+  EXPECT_CODE(Insert(request), StatusCode::INVALID_ARGUMENT, "stereo: not set");
+
+  // A consistent image of the wrong size for the calibration.
+  request = KeyframeRequest(0, true);
+  const cv::Mat small(240, 376, CV_8UC1, cv::Scalar(7));
+  SetImage(small, request.mutable_stereo()->mutable_left());
+  SetImage(small, request.mutable_stereo()->mutable_right());
+  EXPECT_CODE(Insert(request), StatusCode::INVALID_ARGUMENT,
+              "stereo.left: 376x240 differs from the calibration's 752x480");
+
+  request = KeyframeRequest(0, true);
+  request.mutable_stereo()->mutable_left()->mutable_data()->resize(1000);
+  EXPECT_CODE(Insert(request), StatusCode::INVALID_ARGUMENT,
+              "stereo.left.data: 1000 bytes, expected width*height = 360960");
+
+  request = KeyframeRequest(0, true);
+  request.mutable_stereo()->mutable_right()->set_encoding(v1::IMAGE_ENCODING_UNSPECIFIED);
+  EXPECT_CODE(Insert(request), StatusCode::INVALID_ARGUMENT, "stereo.right.encoding");
+
+  request = KeyframeRequest(0, true);
+  request.mutable_t_world_body()->mutable_orientation()->set_w(0.5);
+  EXPECT_CODE(Insert(request), StatusCode::INVALID_ARGUMENT, "t_world_body.orientation");
+
+  request = KeyframeRequest(0, true);
+  request.mutable_t_world_body()->mutable_position()->set_y(kNaN);
+  EXPECT_CODE(Insert(request), StatusCode::INVALID_ARGUMENT, "t_world_body.position: not finite");
+
+  request = KeyframeRequest(0, true);
+  request.clear_t_world_body();
+  EXPECT_CODE(Insert(request), StatusCode::INVALID_ARGUMENT, "t_world_body: not set");
+
+  grpc::ClientContext context;
+  v1::MappingStatus status;
+  ASSERT_TRUE(stub_->GetStatus(&context, v1::MappingGetStatusRequest(), &status).ok());
+  EXPECT_EQ(status.keyframes(), 0u) << "rejected frames must not reach the map";
+}
+
+TEST_F(MappingContractTest, TheKeyframeRuleSkipsFramesThatDidNotMoveAndTheLimitHolds) {
+  v1::StartSessionRequest session = SessionRequest();
+  session.mutable_keyframes()->set_max_keyframes(2);
+  ASSERT_TRUE(StartSession(session).ok());
+  v1::InsertKeyframeResponse response;
+  ASSERT_TRUE(Insert(KeyframeRequest(0, false), &response).ok());
+  EXPECT_TRUE(response.accepted());
+  EXPECT_EQ(response.keyframe_index(), 0u);
+  EXPECT_GT(response.features(), 20u);
+  EXPECT_EQ(response.points_total(), response.features());
+  EXPECT_GT(response.processing_ms(), 0.0);
+
+  // Same pose again: not a keyframe; forced: a keyframe.
+  ASSERT_TRUE(Insert(KeyframeRequest(0, false), &response).ok());
+  EXPECT_FALSE(response.accepted());
+  ASSERT_TRUE(Insert(KeyframeRequest(0, true), &response).ok());
+  EXPECT_TRUE(response.accepted());
+  EXPECT_EQ(response.keyframe_index(), 1u);
+
+  EXPECT_CODE(Insert(KeyframeRequest(1, true)), StatusCode::RESOURCE_EXHAUSTED, "max_keyframes");
+
+  grpc::ClientContext context;
+  v1::MappingStatus status;
+  ASSERT_TRUE(stub_->GetStatus(&context, v1::MappingGetStatusRequest(), &status).ok());
+  EXPECT_EQ(status.frames_seen(), 3u);
+  EXPECT_EQ(status.keyframes(), 2u);
+  EXPECT_EQ(status.keyframe_ms().count(), 2u);
+}
+
+TEST_F(MappingContractTest, BuildMapValidatesNamingTheField) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  ASSERT_TRUE(Insert(KeyframeRequest(0, true)).ok());
+  v1::BuildMapRequest request;
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "method: not set");
+
+  request.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  request.set_resolution_m(5);
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "resolution_m");
+
+  request.set_resolution_m(0);
+  *request.mutable_bounds() = MakeBox(0, 0, 3, 1, 1, 1);
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "bounds: min.z 3 > max.z 1");
+  *request.mutable_bounds() = MakeBox(0, kNaN, 0, 1, 1, 1);
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "bounds.min.y: not finite");
+
+  request.clear_bounds();
+  request.mutable_sparse_mesh()->set_min_visibility(1000);
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "sparse_mesh.min_visibility");
+  request.clear_sparse_mesh();
+  request.mutable_sparse_mesh()->set_free_space_weight(-1);
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "sparse_mesh.free_space_weight");
+  request.clear_sparse_mesh();
+  request.mutable_octomap()->set_num_disparities(50);
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "octomap.num_disparities");
+  request.clear_octomap();
+  request.mutable_octomap()->set_prob_hit(0.3);
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "octomap.prob_hit");
+  request.clear_octomap();
+
+  // Above the server's voxel limit (20 M in this fixture): 1 km^3 at 5 cm.
+  *request.mutable_bounds() = MakeBox(-500, -500, -500, 500, 500, 500);
+  EXPECT_CODE(Build(request), StatusCode::RESOURCE_EXHAUSTED, "voxels");
+}
+
+TEST_F(MappingContractTest, BuildQueryDownloadAndReset) {
+  ASSERT_NO_FATAL_FAILURE(InsertAll());
+  const size_t keyframes = TestData().frames.size();
+
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  v1::BuildMapResponse mesh_stats;
+  grpc::Status status = Build(build, &mesh_stats);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(mesh_stats.method(), v1::MAPPING_METHOD_SPARSE_MESH);
+  EXPECT_EQ(mesh_stats.keyframes(), keyframes);
+  EXPECT_GT(mesh_stats.points(), 200u);
+  EXPECT_GT(mesh_stats.tetrahedra(), mesh_stats.points());
+  EXPECT_GT(mesh_stats.mesh_faces(), 100u);
+  EXPECT_GT(mesh_stats.occupancy().occupied_voxels(), 1000u);
+  EXPECT_GT(mesh_stats.occupancy().free_voxels(), 1000u);
+  EXPECT_DOUBLE_EQ(mesh_stats.occupancy().resolution_m(), 0.05);
+  EXPECT_GT(mesh_stats.timing().delaunay_ms(), 0.0);
+  EXPECT_GT(mesh_stats.timing().total_ms(), mesh_stats.timing().features_ms());
+
+  build.set_method(v1::MAPPING_METHOD_OCTOMAP);
+  build.set_resolution_m(0.1);
+  build.set_unknown(v1::UNKNOWN_HANDLING_AS_OCCUPIED);
+  v1::BuildMapResponse octo_stats;
+  status = Build(build, &octo_stats);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(octo_stats.method(), v1::MAPPING_METHOD_OCTOMAP);
+  EXPECT_GT(octo_stats.points(), 10000u);
+  EXPECT_GT(octo_stats.timing().dense_stereo_ms(), 0.0);
+  EXPECT_EQ(octo_stats.occupancy().unknown_voxels(), 0u) << "AS_OCCUPIED leaves no unknown";
+  EXPECT_DOUBLE_EQ(octo_stats.occupancy().resolution_m(), 0.1);
+
+  {
+    grpc::ClientContext context;
+    v1::MappingStatus s;
+    ASSERT_TRUE(stub_->GetStatus(&context, v1::MappingGetStatusRequest(), &s).ok());
+    ASSERT_EQ(s.maps_size(), 2);
+    EXPECT_EQ(s.maps(0).method(), v1::MAPPING_METHOD_SPARSE_MESH);
+    EXPECT_EQ(s.maps(1).method(), v1::MAPPING_METHOD_OCTOMAP);
+    EXPECT_FALSE(s.building());
+  }
+
+  // Occupancy of the sparse mesh in 4 KiB chunks: a valid OctoMap with occupied leaves.
+  v1::GetOccupancyRequest occupancy;
+  occupancy.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  occupancy.set_chunk_size(4096);
+  std::string bytes;
+  int chunks = 0;
+  v1::OccupancyChunk first;
+  status = Occupancy(occupancy, &bytes, &chunks, &first);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_GT(chunks, 1);
+  EXPECT_EQ(first.format(), v1::OCCUPANCY_FORMAT_OCTOMAP_BT);
+  EXPECT_DOUBLE_EQ(first.resolution_m(), 0.05);
+  EXPECT_LT(first.bounds().min().x(), first.bounds().max().x());
+  {
+    std::istringstream in(bytes);
+    octomap::OcTree tree(0.1);
+    ASSERT_TRUE(tree.readBinary(in));
+    EXPECT_NEAR(tree.getResolution(), 0.05, 1e-9);
+    int64_t occupied = 0;
+    for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+      occupied += tree.isNodeOccupied(*it) ? 1 : 0;
+    }
+    EXPECT_GT(occupied, 100);
+  }
+  // The lossless format of the most recent build (octomap at 10 cm): parses, no unknown.
+  occupancy.set_method(v1::MAPPING_METHOD_UNSPECIFIED);
+  occupancy.set_format(v1::OCCUPANCY_FORMAT_MAVOCC);
+  occupancy.set_chunk_size(0);
+  status = Occupancy(occupancy, &bytes);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  {
+    const std::string path = ::testing::TempDir() + "/mapping_contract.mavocc";
+    ASSERT_TRUE(WriteStringToFileAtomic(path, bytes).ok());
+    Result<sim::OccupancyGrid> grid = sim::OccupancyGrid::Read(path);
+    ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+    EXPECT_DOUBLE_EQ(grid->resolution(), 0.1);
+    EXPECT_EQ(grid->Count(sim::VoxelState::kUnknown), 0);
+    EXPECT_EQ(static_cast<uint64_t>(grid->Count(sim::VoxelState::kOccupied)),
+              octo_stats.occupancy().occupied_voxels());
+  }
+  occupancy.set_chunk_size(100);
+  EXPECT_CODE(Occupancy(occupancy, &bytes), StatusCode::INVALID_ARGUMENT, "chunk_size");
+  occupancy.set_chunk_size(0);
+  occupancy.set_format(static_cast<v1::OccupancyFormat>(9));
+  EXPECT_CODE(Occupancy(occupancy, &bytes), StatusCode::INVALID_ARGUMENT, "format");
+
+  // Collision queries: half a metre in front of a keyframe's camera is observed free space; a
+  // box far outside the map is unknown (a collision under the paper's convention); malformed
+  // boxes name the field.
+  const geometry::SE3 T_world_cam =
+      TestData().frames[3].T_world_body * TestData().calibration.T_body_cam0;
+  const Eigen::Vector3d c = T_world_cam * Eigen::Vector3d(0, 0, 0.5);
+  v1::QueryCollisionRequest query;
+  query.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  *query.add_boxes() =
+      MakeBox(c.x() - 0.05, c.y() - 0.05, c.z() - 0.05, c.x() + 0.05, c.y() + 0.05, c.z() + 0.05);
+  *query.add_boxes() = MakeBox(500, 500, 500, 501, 501, 501);
+  v1::QueryCollisionResponse answer;
+  status = Query(query, &answer);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(answer.states_size(), 2);
+  EXPECT_EQ(answer.states(0), v1::COLLISION_STATE_FREE);
+  EXPECT_EQ(answer.states(1), v1::COLLISION_STATE_UNKNOWN);
+  EXPECT_EQ(answer.free(), 1u);
+  EXPECT_EQ(answer.unknown(), 1u);
+  query.set_unknown_is_collision(true);
+  ASSERT_TRUE(Query(query, &answer).ok());
+  EXPECT_EQ(answer.states(1), v1::COLLISION_STATE_COLLISION);
+  EXPECT_EQ(answer.collisions(), 1u);
+
+  *query.add_boxes() = MakeBox(kNaN, 0, 0, 1, 1, 1);
+  EXPECT_CODE(Query(query), StatusCode::INVALID_ARGUMENT, "boxes[2].min.x: not finite");
+  query.clear_boxes();
+  *query.add_boxes() = MakeBox(0, 0, 3, 1, 1, 1);
+  EXPECT_CODE(Query(query), StatusCode::INVALID_ARGUMENT, "boxes[0]: min.z 3 > max.z 1");
+  query.clear_boxes();
+  EXPECT_CODE(Query(query), StatusCode::INVALID_ARGUMENT, "boxes: no boxes");
+  // Empty Box messages keep the request small (2 bytes each): the count is checked first.
+  for (int i = 0; i < 100001; ++i) query.add_boxes();
+  EXPECT_CODE(Query(query), StatusCode::INVALID_ARGUMENT, "100000");
+
+  // The mesh as PLY (binary and ASCII), with the faces BuildMap reported.
+  v1::ExportMeshRequest mesh;
+  mesh.set_chunk_size(4096);
+  status = Mesh(mesh, &bytes);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(bytes.rfind("ply", 0), 0u);
+  Result<mapping::TriangleMesh> decoded = mapping::DecodePly(bytes, "ExportMesh");
+  ASSERT_TRUE(decoded.ok()) << decoded.status().ToString();
+  EXPECT_EQ(decoded->triangles.size(), mesh_stats.mesh_faces());
+  mesh.set_format(v1::MESH_FORMAT_PLY_ASCII);
+  ASSERT_TRUE(Mesh(mesh, &bytes).ok());
+  EXPECT_NE(bytes.find("format ascii 1.0"), std::string::npos);
+  mesh.set_chunk_size(5 << 20);
+  EXPECT_CODE(Mesh(mesh, &bytes), StatusCode::INVALID_ARGUMENT, "chunk_size");
+
+  // Reset forgets keyframes and maps, keeps the session.
+  {
+    grpc::ClientContext context;
+    v1::MappingStatus s;
+    ASSERT_TRUE(stub_->Reset(&context, v1::MappingResetRequest(), &s).ok());
+    EXPECT_TRUE(s.session_active());
+    EXPECT_EQ(s.keyframes(), 0u);
+    EXPECT_EQ(s.maps_size(), 0);
+  }
+  query.clear_boxes();
+  *query.add_boxes() = MakeBox(0, 0, 0, 1, 1, 1);
+  EXPECT_CODE(Query(query), StatusCode::NOT_FOUND, "BuildMap");
+  build.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  EXPECT_CODE(Build(build), StatusCode::FAILED_PRECONDITION, "empty map");
+}
+
+TEST_F(MappingContractTest, ABuildOutlivingItsDeadlineIsDeadlineExceeded) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  for (size_t i = 0; i < 3; ++i) ASSERT_TRUE(Insert(KeyframeRequest(i, true)).ok());
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_OCTOMAP);
+  EXPECT_EQ(Build(build, nullptr, 0.001).error_code(), StatusCode::DEADLINE_EXCEEDED);
+  // The abandoned build leaves no map, and the service builds again afterwards.
+  for (int i = 0; i < 200; ++i) {
+    grpc::ClientContext context;
+    v1::MappingStatus s;
+    ASSERT_TRUE(stub_->GetStatus(&context, v1::MappingGetStatusRequest(), &s).ok());
+    if (!s.building()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  const grpc::Status again = Build(build);
+  EXPECT_TRUE(again.ok()) << again.error_message();
+}
+
+TEST_F(MappingContractTest, LoopbackPortAnswersHealthAndRpcs) {
+  const std::string target = "127.0.0.1:" + std::to_string(server_->port());
+  auto channel = grpc::CreateChannel(target, grpc::InsecureChannelCredentials());
+  auto health = transport::CheckHealth(channel, "mav.v1.Mapping", std::chrono::seconds(2));
+  ASSERT_TRUE(health.ok()) << health.status().ToString();
+  EXPECT_EQ(*health, transport::HealthStatus::kServing);
+  auto stub = v1::Mapping::NewStub(channel);
+  grpc::ClientContext context;
+  context.set_deadline(Deadline(2));
+  v1::MappingStatus status;
+  ASSERT_TRUE(stub->StartSession(&context, SessionRequest(), &status).ok());
+  EXPECT_TRUE(status.session_active());
+  grpc::ClientContext insert_context;
+  insert_context.set_deadline(Deadline(20));
+  v1::InsertKeyframeResponse response;
+  const grpc::Status inserted =
+      stub->InsertKeyframe(&insert_context, KeyframeRequest(0, true), &response);
+  ASSERT_TRUE(inserted.ok()) << inserted.error_message();
+  EXPECT_TRUE(response.accepted());
+}
+
+// ---- The gRPC-free pieces
+// ------------------------------------------------------------------------
+
+FrameInput Frame(int64_t t_ns) {
+  FrameInput f;
+  f.t_ns = t_ns;
+  f.left = cv::Mat(4, 4, CV_8UC1, cv::Scalar(1));
+  f.right = f.left.clone();
+  return f;
+}
+
+geometry::SE3 At(double x) { return geometry::SE3(Eigen::Quaterniond::Identity(), {x, 0, 0}); }
+
+TEST(PoseMatcherTest, GroundTruthIsInterpolatedAtTheFrameTime) {
+  PoseMatcher matcher(PoseSource::kGroundTruth, 1'000'000'000);
+  uint64_t dropped = 0;
+  EXPECT_TRUE(matcher.AddPose(1'000'000'000, At(1.0), &dropped).empty());
+  // Frame between two samples 5 ms apart: waits for the later one, then gets the interpolation.
+  EXPECT_TRUE(matcher.AddFrame(Frame(1'002'000'000), 0, &dropped).empty());
+  EXPECT_EQ(matcher.pending(), 1u);
+  auto matched = matcher.AddPose(1'005'000'000, At(2.0), &dropped);
+  ASSERT_EQ(matched.size(), 1u);
+  EXPECT_NEAR(matched[0].T_world_body.Translation().x(), 1.4, 1e-9);
+  // Exactly on a sample.
+  matched = matcher.AddFrame(Frame(1'005'000'000), 0, &dropped);
+  ASSERT_EQ(matched.size(), 1u);
+  EXPECT_NEAR(matched[0].T_world_body.Translation().x(), 2.0, 1e-12);
+  // A frame older than the history, or in a gap over 25 ms, has no pose.
+  EXPECT_TRUE(matcher.AddFrame(Frame(900'000'000), 0, &dropped).empty());
+  EXPECT_EQ(dropped, 1u);
+  matcher.AddPose(1'100'000'000, At(3.0), &dropped);
+  EXPECT_TRUE(matcher.AddFrame(Frame(1'050'000'000), 0, &dropped).empty());
+  EXPECT_EQ(dropped, 2u);
+  EXPECT_EQ(matcher.pending(), 0u);
+}
+
+TEST(PoseMatcherTest, LocalizationPosesMatchExactlyAndPendingFramesExpire) {
+  PoseMatcher matcher(PoseSource::kLocalization, 100'000'000);
+  uint64_t dropped = 0;
+  // Frames arrive before the estimator's poses.
+  EXPECT_TRUE(matcher.AddFrame(Frame(50), 0, &dropped).empty());
+  EXPECT_TRUE(matcher.AddFrame(Frame(100), 0, &dropped).empty());
+  auto matched = matcher.AddPose(50, At(5.0), &dropped);
+  ASSERT_EQ(matched.size(), 1u);
+  EXPECT_EQ(matched[0].frame.t_ns, 50);
+  // The estimator skipped frame 100: a newer pose decides it has none.
+  EXPECT_TRUE(matcher.AddPose(150, At(6.0), &dropped).empty());
+  EXPECT_EQ(dropped, 1u);
+  // No pose at all: expires after the wait.
+  EXPECT_TRUE(matcher.AddFrame(Frame(200), 1'000, &dropped).empty());
+  EXPECT_EQ(matcher.Expire(50'000'000), 0u);
+  EXPECT_EQ(matcher.Expire(200'000'000), 1u);
+}
+
+TEST(MapperTest, LiveFramesWithGroundTruthBecomeKeyframes) {
+  const Data& data = TestData();
+  Mapper mapper;
+  SessionConfig config;
+  config.calibration = data.calibration;
+  config.calibration_rectified = true;
+  config.pose_source = PoseSource::kGroundTruth;
+  ASSERT_TRUE(mapper.StartSession(config).ok());
+  for (const Data::Frame& f : data.frames) {
+    mapper.SubmitPose(f.t_ns - 5'000'000, f.T_world_body);
+    FrameInput input{f.t_ns, f.left, f.right, true};
+    mapper.SubmitLiveFrame(input);
+    mapper.SubmitPose(f.t_ns + 5'000'000, f.T_world_body);
+  }
+  FrameInput wrong = Frame(1);  // 4x4: not the rig's size
+  mapper.SubmitLiveFrame(wrong);
+  for (int i = 0; i < 600; ++i) {
+    const MapperStatus s = mapper.GetStatus();
+    if (s.queue_depth == 0 && s.keyframes == s.keyframes_selected) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  const MapperStatus status = mapper.GetStatus();
+  EXPECT_EQ(status.frames_seen, data.frames.size() + 1);
+  EXPECT_EQ(status.frames_rejected, 1u);
+  EXPECT_EQ(status.frames_without_pose, 0u);
+  EXPECT_GE(status.keyframes, 3u);
+  EXPECT_EQ(status.keyframes, status.keyframes_selected);
+  EXPECT_EQ(status.frames_dropped, 0u);
+  EXPECT_GT(status.points, 200u);
+  mapper.Shutdown();
+}
+
+TEST(MappingDdsTest, StereoFramesAreCheckedNamingTheField) {
+  std::vector<uint8_t> left(12, 3), right(12, 4);
+  mav_dds_StereoFrame frame{};
+  frame.width = 4;
+  frame.height = 3;
+  frame.encoding = mav_dds_PIXEL_FORMAT_MONO8;
+  frame.left._buffer = left.data();
+  frame.left._length = 12;
+  frame.right._buffer = right.data();
+  frame.right._length = 12;
+  frame.crc32 = services::StereoCrc32(left.data(), 12, right.data(), 12);
+  EXPECT_TRUE(services::CheckStereoFrame(frame).ok());
+  const FrameInput input = FromDds(frame);
+  EXPECT_EQ(input.left.cols, 4);
+  EXPECT_EQ(input.right.at<uint8_t>(2, 3), 4);
+  frame.crc32 ^= 1;
+  EXPECT_NE(services::CheckStereoFrame(frame).message().find("crc32"), std::string::npos);
+  frame.right._length = 11;
+  EXPECT_NE(services::CheckStereoFrame(frame).message().find("right: 11 bytes"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mav::mapping_service

@@ -3,12 +3,34 @@
 
 #include "mav/v1/common.pb.h"
 
+#include <string>
+
 #include "mav/camera/pinhole.h"
+#include "mav/camera/stereo.h"
+#include "mav/common/status.h"
 #include "mav/geometry/se3.h"
 
 namespace mav::services {
 
 void ToProto(const geometry::SE3& pose, v1::Pose* out);
 void ToProto(const camera::PinholeRadTan& camera, v1::CameraIntrinsics* out);
+
+// A Pose validated as common.proto says: finite position, quaternion norm within 1e-3 of 1
+// (then normalised). InvalidArgument "<field>.position: not finite" / "<field>.orientation: ...".
+Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& field);
+
+// One camera's intrinsics; InvalidArgument naming "<field>.intrinsics...".
+Result<camera::PinholeRadTan> CameraFromProto(const v1::CameraCalibration& camera,
+                                              const std::string& field);
+
+// A stereo rig from the proto; `field` prefixes error messages ("calibration.calibration").
+// InvalidArgument naming the field: missing camera, non-positive size or focal length, non-unit
+// quaternion, cameras of different sizes, zero baseline.
+struct RigCalibration {
+  camera::StereoCalibration calibration;
+  bool rectified = false;
+};
+Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
+                                            const std::string& field);
 
 }  // namespace mav::services

@@ -25,25 +25,14 @@ v1::LocalizationMethod ToProto(Method method);
 // initial_pose, output_frame, queue_length. InvalidArgument naming the field.
 Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& request);
 
-// A stereo rig from the proto; `field` prefixes error messages ("calibration.calibration").
-// InvalidArgument naming the field: missing camera, non-positive size or focal length, non-unit
-// quaternion, cameras of different sizes, zero baseline.
-struct RigCalibration {
-  camera::StereoCalibration calibration;
-  bool rectified = false;
-};
-Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
-                                            const std::string& field);
-
-// A Pose validated as common.proto says: finite position, quaternion norm within 1e-3 of 1
-// (then normalised). InvalidArgument "<field>.orientation: ...".
-Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& field);
-
 // A StereoPair as a StereoInput (pixels copied). InvalidArgument naming "<field>.left" etc.: empty
 // image, encoding not MONO8, data size != width*height, left/right sizes differ. The size against
 // the calibration and the time order are checked by the Localizer.
 Result<StereoInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
 
+using services::CalibrationFromProto;
+using services::PoseFromProto;
+using services::RigCalibration;
 using services::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics
 void ToProto(const PoseOutput& pose, v1::PoseWithCovariance* out);
 void ToProto(const PoseOutput& pose, v1::ProcessStereoPairResponse* out);

@@ -12,6 +12,7 @@
 #include "mav/v1/localization.grpc.pb.h"
 
 #include "mav/common/status.h"
+#include "services/common/calibration_source.h"
 #include "services/localization/convert.h"
 #include "services/localization/dds_io.h"
 #include "services/localization/pipeline.h"
@@ -27,11 +28,7 @@ struct LocalizationServiceOptions {
   bool IsValid(std::string* why) const;
 };
 
-// Resolves a CalibrationSource: inline (validated), an EuRoC directory (NotFound when missing,
-// InvalidArgument naming file and key when malformed), or a simulator's GetCalibration
-// (Unavailable when unreachable, FailedPrecondition when it has nothing loaded). Messages start
-// with the field path "calibration...".
-Result<RigCalibration> ResolveCalibration(const v1::CalibrationSource& source, int64_t timeout_ms);
+using services::ResolveCalibration;  // services/common/calibration_source.h
 
 class LocalizationService final : public v1::Localization::Service {
  public:

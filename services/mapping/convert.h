@@ -10,6 +10,7 @@
 
 #include "mav/v1/common.pb.h"
 #include "mav/v1/mapping.pb.h"
+#include "services/common/proto_codec.h"
 
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
@@ -18,6 +19,10 @@
 #include "services/mapping/mapper.h"
 
 namespace mav::mapping_service {
+
+using services::CalibrationFromProto;  // services/common/proto_codec.h
+using services::PoseFromProto;
+using services::RigCalibration;
 
 // MappingMethod -> library method. UNSPECIFIED: nullopt when `allow_unspecified` (= "the most
 // recent build"), else InvalidArgument "<field>: not set ...". Unknown values: InvalidArgument.
@@ -34,18 +39,6 @@ v1::PoseSource ToProto(PoseSource source);
 // server's settings that the request does not have (queue length, pose wait).
 Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
                                        const SessionConfig& defaults);
-
-// A stereo rig from the proto; `field` prefixes error messages.
-struct RigCalibration {
-  camera::StereoCalibration calibration;
-  bool rectified = false;
-};
-Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
-                                            const std::string& field);
-
-// A Pose validated as common.proto says: finite position, quaternion norm within 1e-3 of 1
-// (then normalised). InvalidArgument "<field>.position: not finite" / "<field>.orientation: ...".
-Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& field);
 
 // A StereoPair as a FrameInput (pixels copied). InvalidArgument naming "<field>.left..." for an
 // empty image, an encoding other than MONO8, data size != width*height, or left/right sizes that

@@ -13,6 +13,7 @@
 #include "mav/v1/mapping.grpc.pb.h"
 
 #include "mav/common/status.h"
+#include "services/common/calibration_source.h"
 #include "services/mapping/convert.h"
 #include "services/mapping/dds_io.h"
 #include "services/mapping/mapper.h"
@@ -30,11 +31,7 @@ struct MappingServiceOptions {
   bool IsValid(std::string* why) const;
 };
 
-// Resolves a CalibrationSource: inline (validated), an EuRoC directory (NotFound when missing,
-// InvalidArgument naming file and key when malformed), or a simulator's GetCalibration
-// (Unavailable when unreachable, FailedPrecondition when it has nothing loaded). Messages start
-// with the field path "calibration...".
-Result<RigCalibration> ResolveCalibration(const v1::CalibrationSource& source, int64_t timeout_ms);
+using services::ResolveCalibration;  // services/common/calibration_source.h
 
 class MappingService final : public v1::Mapping::Service {
  public:

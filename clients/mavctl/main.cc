@@ -24,6 +24,7 @@
 
 #include "mav/v1/simulator.grpc.pb.h"
 
+#include "clients/mavctl/connection.h"
 #include "clients/mavctl/listen.h"
 #include "clients/mavctl/localization_commands.h"
 #include "clients/mavctl/mapping_commands.h"
@@ -58,56 +59,12 @@ constexpr char kUsage[] =
     "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
     "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
 
-struct Connection {
-  std::string address = "127.0.0.1";
-  int64_t port = kSimulatorPort;
-  double timeout_s = 10.0;
-
-  std::string Target() const { return address + ":" + std::to_string(port); }
+// The shared connection flags (connection.h) with this service's default port.
+struct Connection : mav::mavctl::Connection {
+  Connection() : mav::mavctl::Connection(kSimulatorPort, kSimulatorPortEnv) {}
 };
-
-void AddConnectionFlags(FlagParser* flags, Connection* connection) {
-  flags->AddString("address", &connection->address, "server address");
-  flags->AddInt("port", &connection->port,
-                "server port (env " + std::string(kSimulatorPortEnv) + ")");
-  flags->AddDouble("timeout", &connection->timeout_s, "deadline of each RPC, s");
-}
-
-// Parses the flags of a subcommand; exits 2 on usage errors.
-std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
-                                     const std::vector<std::string>& args,
-                                     bool allow_positional = false) {
-  std::vector<std::string> positional;
-  bool help = false;
-  const mav::Status status = flags->Parse(args, allow_positional ? &positional : nullptr, &help);
-  if (help) {
-    std::cout << flags->Usage();
-    std::exit(0);
-  }
-  if (!status.ok()) {
-    std::cerr << "mavctl: " << status.message() << "\n";
-    std::exit(2);
-  }
-  if (connection != nullptr) {
-    if (!flags->WasSet("port")) {
-      auto port = mav::transport::PortFromEnv(kSimulatorPortEnv, connection->port);
-      if (!port.ok()) {
-        std::cerr << "mavctl: " << port.status().message() << "\n";
-        std::exit(2);
-      }
-      connection->port = *port;
-    }
-    if (connection->port <= 0 || connection->port > 65535) {
-      std::cerr << "mavctl: --port: " << connection->port << " is outside [1, 65535]\n";
-      std::exit(2);
-    }
-    if (!(connection->timeout_s > 0.0) || !std::isfinite(connection->timeout_s)) {
-      std::cerr << "mavctl: --timeout: must be > 0 s\n";
-      std::exit(2);
-    }
-  }
-  return positional;
-}
+using mav::mavctl::AddConnectionFlags;
+using mav::mavctl::ParseOrExit;
 
 std::shared_ptr<grpc::Channel> Connect(const Connection& connection) {
   return grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials());

@@ -1,4 +1,5 @@
 #include "clients/mavctl/mapping_commands.h"
+#include "clients/mavctl/connection.h"
 
 #include <chrono>
 #include <cmath>
@@ -47,48 +48,10 @@ constexpr char kMapUsage[] =
     "Common flags: --address A (127.0.0.1), --port P (50053, env MAV_MAPPING_PORT),\n"
     "--timeout S (RPC deadline, 10 s; map build 120 s).\n";
 
-struct Connection {
-  std::string address = "127.0.0.1";
-  int64_t port = kMappingPort;
-  double timeout_s = 10.0;
-  std::string Target() const { return address + ":" + std::to_string(port); }
+// The shared connection flags (connection.h) with this service's default port.
+struct Connection : mavctl::Connection {
+  Connection() : mavctl::Connection(kMappingPort, kMappingPortEnv) {}
 };
-
-void AddConnectionFlags(FlagParser* flags, Connection* connection) {
-  flags->AddString("address", &connection->address, "server address");
-  flags->AddInt("port", &connection->port,
-                "server port (env " + std::string(kMappingPortEnv) + ")");
-  flags->AddDouble("timeout", &connection->timeout_s, "deadline of each RPC, s");
-}
-
-void ParseOrExit(FlagParser* flags, Connection* connection, const std::vector<std::string>& args) {
-  bool help = false;
-  const Status status = flags->Parse(args, nullptr, &help);
-  if (help) {
-    std::cout << flags->Usage();
-    std::exit(0);
-  }
-  if (!status.ok()) {
-    std::cerr << "mavctl: " << status.message() << "\n";
-    std::exit(2);
-  }
-  if (!flags->WasSet("port")) {
-    auto port = transport::PortFromEnv(kMappingPortEnv, connection->port);
-    if (!port.ok()) {
-      std::cerr << "mavctl: " << port.status().message() << "\n";
-      std::exit(2);
-    }
-    connection->port = *port;
-  }
-  if (connection->port <= 0 || connection->port > 65535) {
-    std::cerr << "mavctl: --port: " << connection->port << " is outside [1, 65535]\n";
-    std::exit(2);
-  }
-  if (!(connection->timeout_s > 0.0) || !std::isfinite(connection->timeout_s)) {
-    std::cerr << "mavctl: --timeout: must be > 0 s\n";
-    std::exit(2);
-  }
-}
 
 int Usage(const std::string& message) {
   std::cerr << "mavctl: " << message << "\n";

@@ -1,7 +1,9 @@
 #include "services/common/proto_codec.h"
 
 #include <cmath>
+#include <cstring>
 #include <sstream>
+#include <tuple>
 
 namespace mav::services {
 namespace {
@@ -115,6 +117,43 @@ Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
   }
   std::string why;
   if (!out.calibration.IsValid(&why)) return Status::InvalidArgument(field + ": " + why);
+  return out;
+}
+
+Result<StereoImages> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
+  StereoImages out;
+  out.t_ns = pair.t_ns();
+  out.rectified = pair.rectified();
+  for (const auto& [name, image, mat] :
+       {std::tuple<const char*, const v1::Image*, cv::Mat*>{"left", &pair.left(), &out.left},
+        std::tuple<const char*, const v1::Image*, cv::Mat*>{"right", &pair.right(), &out.right}}) {
+    const std::string f = field + "." + name;
+    if (image->width() == 0 || image->height() == 0) {
+      return Status::InvalidArgument(f + ": empty image (" + std::to_string(image->width()) + "x" +
+                                     std::to_string(image->height()) + ")");
+    }
+    if (image->width() > 65536 || image->height() > 65536) {
+      return Status::InvalidArgument(f + ": " + std::to_string(image->width()) + "x" +
+                                     std::to_string(image->height()) + " is too large");
+    }
+    if (image->encoding() != v1::IMAGE_ENCODING_MONO8) {
+      return Status::InvalidArgument(f + ".encoding: must be IMAGE_ENCODING_MONO8, got " +
+                                     std::to_string(static_cast<int>(image->encoding())));
+    }
+    const uint64_t expected = static_cast<uint64_t>(image->width()) * image->height();
+    if (image->data().size() != expected) {
+      return Status::InvalidArgument(f + ".data: " + std::to_string(image->data().size()) +
+                                     " bytes, expected width*height = " + std::to_string(expected));
+    }
+    *mat = cv::Mat(static_cast<int>(image->height()), static_cast<int>(image->width()), CV_8UC1);
+    std::memcpy(mat->data, image->data().data(), expected);
+  }
+  if (out.left.size() != out.right.size()) {
+    return Status::InvalidArgument(field + ".right: " + std::to_string(out.right.cols) + "x" +
+                                   std::to_string(out.right.rows) + ", differs from the left " +
+                                   std::to_string(out.left.cols) + "x" +
+                                   std::to_string(out.left.rows));
+  }
   return out;
 }
 

@@ -3,7 +3,10 @@
 
 #include "mav/v1/common.pb.h"
 
+#include <cstdint>
 #include <string>
+
+#include <opencv2/core/mat.hpp>
 
 #include "mav/camera/pinhole.h"
 #include "mav/camera/stereo.h"
@@ -32,5 +35,16 @@ struct RigCalibration {
 };
 Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
                                             const std::string& field);
+
+// A StereoPair's pixels, copied. InvalidArgument naming "<field>.left" etc.: empty image,
+// encoding not MONO8, data size != width*height, left/right sizes differ. Sizes against a
+// calibration are the caller's to check.
+struct StereoImages {
+  int64_t t_ns = 0;
+  bool rectified = false;
+  cv::Mat left;
+  cv::Mat right;
+};
+Result<StereoImages> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
 
 }  // namespace mav::services

@@ -74,6 +74,13 @@ bool SparseVoOptions::IsValid(std::string* why) const {
     }
     return false;
   }
+  if (pixel_max_starts_per_bucket < 0) {
+    if (why) {
+      *why = "pixel_max_starts_per_bucket: must be >= 0, got " +
+             std::to_string(pixel_max_starts_per_bucket);
+    }
+    return false;
+  }
   if (min_matches < 3) {
     if (why) *why = "min_matches: must be >= 3, got " + std::to_string(min_matches);
     return false;
@@ -82,6 +89,27 @@ bool SparseVoOptions::IsValid(std::string* why) const {
     if (why) {
       *why = "max_translation_per_frame_m: must be > 0, got " +
              std::to_string(max_translation_per_frame_m);
+    }
+    return false;
+  }
+  if (!(keyframe_max_translation_m >= 0) || !(keyframe_max_rotation_deg >= 0)) {
+    if (why) {
+      *why = "keyframe_max_translation_m/keyframe_max_rotation_deg: must be >= 0, got " +
+             std::to_string(keyframe_max_translation_m) + "/" +
+             std::to_string(keyframe_max_rotation_deg);
+    }
+    return false;
+  }
+  if (keyframe_min_inliers < 0) {
+    if (why) {
+      *why = "keyframe_min_inliers: must be >= 0, got " + std::to_string(keyframe_min_inliers);
+    }
+    return false;
+  }
+  if (!(keyframe_min_inlier_ratio >= 0 && keyframe_min_inlier_ratio <= 1)) {
+    if (why) {
+      *why = "keyframe_min_inlier_ratio: must be in [0, 1], got " +
+             std::to_string(keyframe_min_inlier_ratio);
     }
     return false;
   }
@@ -97,8 +125,11 @@ struct SparseVo::Impl {
   FeatureExtractor extractor;
   FeatureSet prev_left, prev_right, cur_left, cur_right;
   bool has_reference = false;
+  // prev_left/prev_right hold the reference pair (the previous pair, or the kept keyframe).
   geometry::SE3 T_world_cam;
-  geometry::SE3 T_cur_prev_prior;  // last estimated motion (constant-velocity prediction)
+  geometry::SE3 T_world_ref;       // pose of the reference pair
+  geometry::SE3 T_last_ref;        // previous frame relative to the reference pair
+  geometry::SE3 T_cur_prev_prior;  // last frame-to-frame motion (constant-velocity prediction)
   bool prior_valid = false;
   int64_t frames = 0;
   std::vector<QuadMatch> matches;
@@ -111,6 +142,8 @@ struct SparseVo::Impl {
     std::swap(prev_left, cur_left);
     std::swap(prev_right, cur_right);
     has_reference = true;
+    T_world_ref = T_world_cam;
+    T_last_ref = geometry::SE3();
   }
 };
 
@@ -130,6 +163,8 @@ Result<SparseVo> SparseVo::Create(const camera::RectifiedStereo& rig,
 void SparseVo::Reset() {
   impl_->has_reference = false;
   impl_->T_world_cam = geometry::SE3();
+  impl_->T_world_ref = geometry::SE3();
+  impl_->T_last_ref = geometry::SE3();
   impl_->T_cur_prev_prior = geometry::SE3();
   impl_->prior_valid = false;
   impl_->frames = 0;
@@ -189,12 +224,19 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
   // fails once more with the wide windows around the same pixel.
   StereoMotionEstimate est;
   result.num_matches = 0;
+  // Predicted motion from the reference pair to the current one: constant velocity on top of the
+  // last frame's pose relative to the reference.
+  const geometry::SE3 T_cur_ref_prior = s.T_cur_prev_prior * s.T_last_ref;
+  MatcherOptions matcher = opt.matcher;
+  if (opt.mode == SparseVoMode::kPixel && opt.pixel_max_starts_per_bucket > 0) {
+    matcher.max_starts_per_bucket = opt.pixel_max_starts_per_bucket;
+  }
   for (int attempt = 0; attempt < 2; ++attempt) {
     const bool use_prior = attempt == 0 && s.prior_valid && opt.matcher.use_motion_prior;
     if (attempt == 1 && !(s.prior_valid && opt.matcher.use_motion_prior)) break;
     t0 = Clock::now();
     MatchCircular(s.prev_left, s.prev_right, s.cur_left, s.cur_right, s.rig,
-                  use_prior ? &s.T_cur_prev_prior : nullptr, opt.matcher, &s.matches);
+                  use_prior ? &T_cur_ref_prior : nullptr, matcher, &s.matches);
     BucketMatches(opt.matcher, s.rig.width, s.rig.height, &s.matches);
     if (opt.mode == SparseVoMode::kSubpixel) {
       RefineMatchesSubpixel(s.prev_left, s.prev_right, s.cur_left, s.cur_right, opt.matcher,
@@ -235,10 +277,17 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
     // A wrong prediction shows as few matches or a low inlier ratio: retry without it.
     if (est.ok && 2 * est.inliers.size() >= s.points.size()) break;
   }
-  s.AdoptCurrentAsReference();
-  if (!est.ok) return finish(TrackingState::kLost, est.failure);
-  const double step = est.T_cur_prev.Translation().norm();
+  if (!est.ok) {
+    s.AdoptCurrentAsReference();
+    return finish(TrackingState::kLost, est.failure);
+  }
+  // est.T_cur_prev maps reference-pair points into the current camera.
+  const geometry::SE3 T_ref_cur = est.T_cur_prev.Inverse();
+  const geometry::SE3 T_world_cur = s.T_world_ref * T_ref_cur;
+  const geometry::SE3 T_prev_cur = s.T_world_cam.Inverse() * T_world_cur;
+  const double step = T_prev_cur.Translation().norm();
   if (!(step <= opt.max_translation_per_frame_m)) {
+    s.AdoptCurrentAsReference();
     std::ostringstream msg;
     msg << "implausible motion: " << step << " m in one frame (max "
         << opt.max_translation_per_frame_m << ")";
@@ -247,10 +296,20 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
   for (int i : est.inliers) s.inliers.push_back(s.match_of_point[i]);
   result.num_inliers = static_cast<int>(est.inliers.size());
   result.mean_reprojection_error_px = est.mean_error_px;
-  result.T_prev_cur = est.T_cur_prev.Inverse();
-  s.T_world_cam = s.T_world_cam * result.T_prev_cur;
-  s.T_cur_prev_prior = est.T_cur_prev;
+  result.T_prev_cur = T_prev_cur;
+  s.T_world_cam = T_world_cur;
+  s.T_cur_prev_prior = T_prev_cur.Inverse();
   s.prior_valid = true;
+  s.T_last_ref = est.T_cur_prev;
+  const double angle_deg =
+      Eigen::AngleAxisd(est.T_cur_prev.Rotation()).angle() * 180.0 / 3.14159265358979323846;
+  const bool keep = opt.keep_reference_while_small &&
+                    est.T_cur_prev.Translation().norm() < opt.keyframe_max_translation_m &&
+                    angle_deg < opt.keyframe_max_rotation_deg &&
+                    static_cast<int>(est.inliers.size()) >= opt.keyframe_min_inliers &&
+                    static_cast<double>(est.inliers.size()) >=
+                        opt.keyframe_min_inlier_ratio * static_cast<double>(s.points.size());
+  if (!keep) s.AdoptCurrentAsReference();
   return finish(TrackingState::kOk, "");
 }
 

@@ -84,8 +84,12 @@ class ImageMotionTest : public ::testing::TestWithParam<ImageMotionCase> {};
 TEST_P(ImageMotionTest, RecoversPerFrameMotionFromRenderedImages) {
   const ImageMotionCase& c = GetParam();
   std::vector<VoFrameResult> results;
-  const std::vector<FrameError> errors =
-      RunSequence(Trajectory(6, c.pose), Options(c.mode), &results);
+  // The per-frame estimator: every pair becomes the reference (with the default keyframe option
+  // a frame's T_prev_cur is the difference of two estimates against the same keyframe; see
+  // KeyframeReferenceReducesDriftOfSlowMotion for that mode).
+  SparseVoOptions options = Options(c.mode);
+  options.keep_reference_while_small = false;
+  const std::vector<FrameError> errors = RunSequence(Trajectory(6, c.pose), options, &results);
   double worst_rot = 0, worst_trans = 0;
   for (const FrameError& e : errors) {
     worst_rot = std::max(worst_rot, e.rotation_deg);
@@ -125,6 +129,47 @@ INSTANTIATE_TEST_SUITE_P(
         ImageMotionCase{"RotationPixel", SparseVoMode::kPixel, Yaw, 0.1, 0.004},
         ImageMotionCase{"ForwardPixel", SparseVoMode::kPixel, Forward, 0.1, 0.03}),
     [](const ::testing::TestParamInfo<ImageMotionCase>& info) { return info.param.name; });
+
+// Slow motion (1 cm and 0.1 deg per frame): matching every frame against the kept reference pair
+// must not accumulate the per-frame error of integer-pixel matches, so the end pose is more
+// accurate than frame-to-frame odometry, and the poses stay chained by T_prev_cur.
+TEST(SparseVoKeyframeTest, KeyframeReferenceReducesDriftOfSlowMotion) {
+  static const synthetic::SyntheticRoom room;
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  auto pose = [](int k) {
+    return SE3(geometry::ExpSO3(Eigen::Vector3d(0, 0.1 * k * M_PI / 180, 0)),
+               Eigen::Vector3d(0.01 * k, 0.002 * k, 0.005 * k));
+  };
+  constexpr int kN = 25;
+  std::vector<Pair> pairs(kN);
+  for (int k = 0; k < kN; ++k) {
+    room.Render(rig, pose(k), &pairs[k].left, &pairs[k].right, /*noise_sigma=*/1.0, k + 1);
+  }
+  double end_error[2] = {0, 0};
+  for (int keep = 0; keep < 2; ++keep) {
+    SparseVoOptions options = Options(SparseVoMode::kPixel);
+    options.keep_reference_while_small = keep == 1;
+    auto vo = SparseVo::Create(rig, options);
+    ASSERT_TRUE(vo.ok());
+    SE3 previous;
+    for (int k = 0; k < kN; ++k) {
+      auto r =
+          vo->ProcessFrame(k * kFrameNs, AsMat(pairs[k].left, rig), AsMat(pairs[k].right, rig));
+      ASSERT_TRUE(r.ok());
+      ASSERT_EQ(r->state, TrackingState::kOk) << "frame " << k << ": " << r->lost_reason;
+      EXPECT_TRUE((previous * r->T_prev_cur).IsApprox(r->T_world_cam, 1e-9)) << "frame " << k;
+      previous = r->T_world_cam;
+    }
+    end_error[keep] =
+        ((pose(0).Inverse() * pose(kN - 1)).Translation() - previous.Translation()).norm();
+  }
+  std::printf(
+      "[ keyframe ] end-point error after %.2f m: frame-to-frame %.2f mm, keyframe %.2f mm\n",
+      (pose(0).Inverse() * pose(kN - 1)).Translation().norm(), end_error[0] * 1e3,
+      end_error[1] * 1e3);
+  EXPECT_LT(end_error[1], end_error[0]);
+  EXPECT_LT(end_error[1], 0.005);
+}
 
 // A smooth 6-DoF trajectory through the room (about 1.9 m in 40 frames).
 SE3 Wander(int k) {

@@ -16,12 +16,12 @@
 #include "mav/transport/grpc_server.h"
 #include "mav_sensors.h"
 #include "services/simulator/dds_io.h"
+#include "tests/common/test_domain.h"
 
 namespace mav::transport {
 namespace {
 
-// A DDS domain of its own per test process, so concurrent test runs do not see each other.
-int64_t TestDomain(int offset) { return 1 + (::getpid() * 7 + offset) % 200; }
+using ::mav::test_support::TestDomain;  // tests/common/test_domain.h
 
 TEST(FlagParserTest, ParsesAllKindsAndBothSyntaxes) {
   std::string name = "x";

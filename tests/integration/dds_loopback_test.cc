@@ -34,6 +34,7 @@
 #include "mav/v1/simulator.grpc.pb.h"
 #include "mav_sensors.h"
 #include "services/simulator/dds_io.h"
+#include "tests/common/test_domain.h"
 
 extern char** environ;
 
@@ -42,7 +43,7 @@ namespace {
 
 const std::string kBinDir = std::string(MAV_BINARY_DIR) + "/bin";
 
-int64_t TestDomain(int offset) { return 1 + (::getpid() * 7 + offset) % 200; }
+using ::mav::test_support::TestDomain;  // tests/common/test_domain.h
 
 // A child process whose stdout (and stderr) go to a pipe or a file.
 class Child {

@@ -38,6 +38,7 @@
 #include "mav/transport/grpc_server.h"
 #include "mav/v1/mapping.grpc.pb.h"
 #include "mav/v1/simulator.grpc.pb.h"
+#include "tests/common/test_domain.h"
 
 extern char** environ;
 
@@ -46,7 +47,7 @@ namespace {
 
 const std::string kBinDir = std::string(MAV_BINARY_DIR) + "/bin";
 
-int64_t TestDomain(int offset) { return 1 + (::getpid() * 7 + offset) % 200; }
+using ::mav::test_support::TestDomain;  // tests/common/test_domain.h
 
 // A child process whose stdout and stderr go to a log file; killed if still running at the end.
 class Child {

@@ -582,13 +582,18 @@ TEST_F(SimulatorContractTest, LoopbackPortAnswersHealthChecksAndRpcs) {
 }
 
 TEST_F(SimulatorContractTest, AShortDeadlineExpiresOnALongStep) {
-  ASSERT_TRUE(LoadPreset("room-easy", 30).ok());
+  ASSERT_TRUE(LoadPreset("room-easy", 60).ok());
   auto channel = grpc::CreateChannel(server_->target(), grpc::InsecureChannelCredentials());
+  // Connect first, so the deadline below times the Step and not the connection set-up.
+  ASSERT_TRUE(
+      channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(5)));
   auto stub = v1::Simulator::NewStub(channel);
   v1::SimulatorStepRequest request;
-  request.set_frames(30);  // rendering 30 pairs takes far longer than 5 ms
+  request.set_frames(60);  // rendering 60 pairs takes far longer than 200 ms
   grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(5));
+  // Long enough that the server surely receives the call (a call whose deadline passes before
+  // it is dispatched is never run), far too short for the step.
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(200));
   v1::SimulatorStatus status;
   const auto start = std::chrono::steady_clock::now();
   const grpc::Status rpc = stub->Step(&context, request, &status);
@@ -596,7 +601,7 @@ TEST_F(SimulatorContractTest, AShortDeadlineExpiresOnALongStep) {
   EXPECT_EQ(rpc.error_code(), StatusCode::DEADLINE_EXCEEDED);
   EXPECT_LT(elapsed, std::chrono::seconds(2)) << "the client must not wait for the server";
   // The server finishes the step it accepted.
-  EXPECT_EQ(WaitForState(v1::SIMULATOR_STATE_PAUSED).frames_published(), 30u);
+  EXPECT_EQ(WaitForState(v1::SIMULATOR_STATE_PAUSED).frames_published(), 60u);
 }
 
 TEST(SimulatorTransportTest, CallingAPortWithoutServerFailsWithinTheDeadline) {

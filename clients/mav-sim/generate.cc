@@ -18,8 +18,8 @@
 #include <opencv2/core.hpp>
 
 #include "commands.h"
-#include "mav/common/flags.h"
 #include "mav/common/file.h"
+#include "mav/common/flags.h"
 #include "mav/common/progress.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"

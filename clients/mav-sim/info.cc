@@ -9,8 +9,8 @@
 #include <opencv2/core.hpp>
 
 #include "commands.h"
-#include "mav/common/flags.h"
 #include "mav/common/file.h"
+#include "mav/common/flags.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
 #include "mav/sim/occupancy.h"

@@ -3,7 +3,8 @@
 //
 // A Status carries a code and a human message that names the offending file, line or field, e.g.
 // "mav0/imu0/data.csv:17: expected 7 columns, got 5". Library APIs never throw across their
-// boundary; services map Status codes onto grpc::Status codes one to one (see docs/contracts.md).
+// boundary; the services translate Status codes to their RPC status codes one to one
+// (see docs/contracts.md).
 
 #include <optional>
 #include <string>

@@ -1,10 +1,16 @@
 #include "clients/mavctl/connection.h"
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
 
+#include <grpcpp/client_context.h>
+#include <grpcpp/support/status.h>
+
+#include "mav/common/time.h"
 #include "mav/transport/flags.h"
+#include "mav/transport/grpc_server.h"
 
 namespace mav::mavctl {
 
@@ -45,6 +51,30 @@ std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
     std::exit(2);
   }
   return positional;
+}
+
+void SetDeadline(const Connection& connection, grpc::ClientContext* context) {
+  context->set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::nanoseconds(SecondsToNs(connection.timeout_s)));
+}
+
+int ReportRpcError(const Connection& connection, const std::string& rpc,
+                   const grpc::Status& status) {
+  const Status mapped = transport::FromGrpcStatus(status);
+  if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
+    std::cerr << "mavctl: cannot connect to " << connection.Target() << " (" << rpc
+              << "): " << status.error_message() << "\n";
+  } else if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
+    std::cerr << "mavctl: no answer from " << connection.Target() << " to " << rpc << " within "
+              << connection.timeout_s << " s (--timeout)\n";
+  } else {
+    std::cerr << "mavctl: " << rpc << " at " << connection.Target() << " failed: "
+              << (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED
+                      ? "RESOURCE_EXHAUSTED: " + status.error_message()
+                      : mapped.ToString())
+              << "\n";
+  }
+  return 1;
 }
 
 }  // namespace mav::mavctl

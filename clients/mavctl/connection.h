@@ -9,6 +9,11 @@
 
 #include "mav/common/flags.h"
 
+namespace grpc {
+class ClientContext;
+class Status;
+}  // namespace grpc
+
 namespace mav::mavctl {
 
 struct Connection {
@@ -32,5 +37,13 @@ void AddConnectionFlags(FlagParser* flags, Connection* connection);
 std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
                                      const std::vector<std::string>& args,
                                      bool allow_positional = false);
+
+// Sets the RPC deadline from --timeout.
+void SetDeadline(const Connection& connection, grpc::ClientContext* context);
+
+// Prints a failed RPC in words (cannot connect / no answer within --timeout / the status with
+// its code) and returns the exit code 1.
+int ReportRpcError(const Connection& connection, const std::string& rpc,
+                   const grpc::Status& status);
 
 }  // namespace mav::mavctl

@@ -65,59 +65,11 @@ struct Connection : mav::mavctl::Connection {
 };
 using mav::mavctl::AddConnectionFlags;
 using mav::mavctl::ParseOrExit;
+using mav::mavctl::ReportRpcError;
+using mav::mavctl::SetDeadline;
 
 std::shared_ptr<grpc::Channel> Connect(const Connection& connection) {
   return grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials());
-}
-
-void SetDeadline(const Connection& connection, grpc::ClientContext* context) {
-  context->set_deadline(std::chrono::system_clock::now() +
-                        std::chrono::nanoseconds(mav::SecondsToNs(connection.timeout_s)));
-}
-
-const char* CodeName(grpc::StatusCode code) {
-  switch (code) {
-    case grpc::StatusCode::OK:
-      return "OK";
-    case grpc::StatusCode::CANCELLED:
-      return "CANCELLED";
-    case grpc::StatusCode::INVALID_ARGUMENT:
-      return "INVALID_ARGUMENT";
-    case grpc::StatusCode::DEADLINE_EXCEEDED:
-      return "DEADLINE_EXCEEDED";
-    case grpc::StatusCode::NOT_FOUND:
-      return "NOT_FOUND";
-    case grpc::StatusCode::FAILED_PRECONDITION:
-      return "FAILED_PRECONDITION";
-    case grpc::StatusCode::OUT_OF_RANGE:
-      return "OUT_OF_RANGE";
-    case grpc::StatusCode::RESOURCE_EXHAUSTED:
-      return "RESOURCE_EXHAUSTED";
-    case grpc::StatusCode::UNAVAILABLE:
-      return "UNAVAILABLE";
-    case grpc::StatusCode::INTERNAL:
-      return "INTERNAL";
-    case grpc::StatusCode::UNIMPLEMENTED:
-      return "UNIMPLEMENTED";
-    default:
-      return "ERROR";
-  }
-}
-
-int ReportRpcError(const Connection& connection, const std::string& rpc,
-                   const grpc::Status& status) {
-  if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
-    std::cerr << "mavctl: cannot connect to " << connection.Target() << " (" << rpc
-              << "): " << status.error_message() << "\n";
-  } else if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
-    std::cerr << "mavctl: no answer from " << connection.Target() << " to " << rpc << " within "
-              << connection.timeout_s << " s (--timeout)\n";
-  } else {
-    std::cerr << "mavctl: " << rpc << " at " << connection.Target()
-              << " failed: " << CodeName(status.error_code()) << ": " << status.error_message()
-              << "\n";
-  }
-  return 1;
 }
 
 const char* StateName(mav::v1::SimulatorState state) {

@@ -63,30 +63,6 @@ std::unique_ptr<v1::Mapping::Stub> Connect(const Connection& connection) {
       grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials()));
 }
 
-void SetDeadline(const Connection& connection, grpc::ClientContext* context) {
-  context->set_deadline(std::chrono::system_clock::now() +
-                        std::chrono::nanoseconds(SecondsToNs(connection.timeout_s)));
-}
-
-int ReportRpcError(const Connection& connection, const std::string& rpc,
-                   const grpc::Status& status) {
-  const Status mapped = transport::FromGrpcStatus(status);
-  if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
-    std::cerr << "mavctl: cannot connect to " << connection.Target() << " (" << rpc
-              << "): " << status.error_message() << "\n";
-  } else if (status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED) {
-    std::cerr << "mavctl: no answer from " << connection.Target() << " to " << rpc << " within "
-              << connection.timeout_s << " s (--timeout)\n";
-  } else {
-    std::cerr << "mavctl: " << rpc << " at " << connection.Target() << " failed: "
-              << (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED
-                      ? "RESOURCE_EXHAUSTED: " + status.error_message()
-                      : mapped.ToString())
-              << "\n";
-  }
-  return 1;
-}
-
 // "a,b,c,..." with exactly `n` numbers; InvalidArgument naming the flag.
 Result<std::vector<double>> ParseNumbers(const std::string& text, size_t n,
                                          const std::string& flag) {

@@ -39,6 +39,18 @@ Status CheckStereoFrame(const mav_dds_StereoFrame& frame) {
   return Status::Ok();
 }
 
+StereoImages StereoFromDds(const mav_dds_StereoFrame& frame) {
+  StereoImages out;
+  out.t_ns = frame.t_ns;
+  out.rectified = frame.rectified;
+  const int rows = static_cast<int>(frame.height);
+  const int cols = static_cast<int>(frame.width);
+  // The loaned buffers go back to DDS after the take: copy.
+  out.left = cv::Mat(rows, cols, CV_8UC1, frame.left._buffer).clone();
+  out.right = cv::Mat(rows, cols, CV_8UC1, frame.right._buffer).clone();
+  return out;
+}
+
 void CopyId(const char* id, char (&out)[33]) {
   std::strncpy(out, id, sizeof(out) - 1);
   out[sizeof(out) - 1] = '\0';

@@ -8,6 +8,7 @@
 #include "mav_sensors.h"
 
 #include "mav/common/status.h"
+#include "services/common/proto_codec.h"
 
 namespace mav::services {
 
@@ -18,6 +19,9 @@ uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right
 // DataLoss naming the field when the sample is inconsistent: encoding, "left: N bytes, expected
 // width*height = M", or "crc32: got X, computed Y".
 Status CheckStereoFrame(const mav_dds_StereoFrame& frame);
+
+// A checked frame's pixels, copied out of the (loaned) sample buffers.
+StereoImages StereoFromDds(const mav_dds_StereoFrame& frame);
 
 // Copies a NUL-terminated id into an IDL string<32> field, truncating if needed.
 void CopyId(const char* id, char (&out)[33]);

@@ -15,14 +15,12 @@ constexpr int32_t kPoseBatch = 512;
 }  // namespace
 
 FrameInput FromDds(const mav_dds_StereoFrame& frame) {
+  services::StereoImages images = services::StereoFromDds(frame);
   FrameInput out;
-  out.t_ns = frame.t_ns;
-  out.rectified = frame.rectified;
-  const int rows = static_cast<int>(frame.height);
-  const int cols = static_cast<int>(frame.width);
-  // The loaned buffers go back to DDS after the take: copy.
-  out.left = cv::Mat(rows, cols, CV_8UC1, frame.left._buffer).clone();
-  out.right = cv::Mat(rows, cols, CV_8UC1, frame.right._buffer).clone();
+  out.t_ns = images.t_ns;
+  out.rectified = images.rectified;
+  out.left = std::move(images.left);
+  out.right = std::move(images.right);
   return out;
 }
 

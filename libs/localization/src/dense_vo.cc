@@ -1,4 +1,5 @@
 #include "mav/localization/dense_vo.h"
+#include "input_checks.h"
 
 #include <algorithm>
 #include <chrono>
@@ -16,33 +17,15 @@
 namespace mav::localization {
 namespace {
 
-using Clock = std::chrono::steady_clock;
 using geometry::SE3;
+using internal::CheckImage;
+using internal::Clock;
+using internal::MsSince;
 using Matrix8d = Eigen::Matrix<double, 8, 8>;
 using Vector8d = Eigen::Matrix<double, 8, 1>;
 using JacobianMatrix = Eigen::Matrix<float, Eigen::Dynamic, 8>;
 
 constexpr double kRadToDeg = 180.0 / M_PI;
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-Status CheckImage(const char* name, const cv::Mat& image, const camera::RectifiedStereo& rig) {
-  std::ostringstream msg;
-  msg << name << ": ";
-  if (image.empty()) {
-    msg << "empty image";
-  } else if (image.type() != CV_8UC1) {
-    msg << "expected an 8-bit single-channel image (CV_8UC1), got OpenCV type " << image.type();
-  } else if (image.cols != rig.width || image.rows != rig.height) {
-    msg << "size " << image.cols << "x" << image.rows << " differs from the rig's " << rig.width
-        << "x" << rig.height;
-  } else {
-    return Status::Ok();
-  }
-  return Status::InvalidArgument(msg.str());
-}
 
 bool IsFinite(const SE3& T) {
   return T.Rotation().coeffs().allFinite() && T.Translation().allFinite();

@@ -1,4 +1,5 @@
 #include "mav/localization/sparse_vo.h"
+#include "input_checks.h"
 
 #include <chrono>
 #include <cmath>
@@ -10,27 +11,9 @@
 namespace mav::localization {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-Status CheckImage(const char* name, const cv::Mat& image, const camera::RectifiedStereo& rig) {
-  std::ostringstream msg;
-  msg << name << ": ";
-  if (image.empty()) {
-    msg << "empty image";
-  } else if (image.type() != CV_8UC1) {
-    msg << "expected an 8-bit single-channel image (CV_8UC1), got OpenCV type " << image.type();
-  } else if (image.cols != rig.width || image.rows != rig.height) {
-    msg << "size " << image.cols << "x" << image.rows << " differs from the rig's " << rig.width
-        << "x" << rig.height;
-  } else {
-    return Status::Ok();
-  }
-  return Status::InvalidArgument(msg.str());
-}
+using internal::CheckImage;
+using internal::Clock;
+using internal::MsSince;
 
 ImageView ViewOf(const cv::Mat& m) {
   return ImageView{m.data, m.cols, m.rows, static_cast<int>(m.step[0])};

@@ -44,15 +44,18 @@ void BM_BuildMesh(benchmark::State& state) {
 }
 BENCHMARK(BM_BuildMesh)->Arg(120)->Arg(300)->Unit(benchmark::kMillisecond);
 
+// Arg: the lines of sight's radius in voxels (0 = thin; the pipeline's default is 1).
 void BM_MeshToOccupancy(benchmark::State& state) {
   const Fixture f(300);
   const auto meshing = BuildMesh(f.points, f.keyframes);
+  MeshToGridOptions options;
+  options.carve_radius_voxels = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    auto grid = MeshToOccupancy(*meshing, f.points, f.keyframes, f.geometry);
+    auto grid = MeshToOccupancy(*meshing, f.points, f.keyframes, f.geometry, options);
     benchmark::DoNotOptimize(grid);
   }
 }
-BENCHMARK(BM_MeshToOccupancy)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MeshToOccupancy)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The whole pipeline as mav-eval runs it, with the collision MCC as a counter.
 void BM_MeshGridEvaluate(benchmark::State& state) {

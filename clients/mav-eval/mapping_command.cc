@@ -354,6 +354,17 @@ int RunMapping(const std::vector<std::string>& args) {
                  "sparse-mesh: stereo points kept per keyframe (the paper: ~100)");
   flags.AddDouble("mesh-sigma", &options.meshing.sigma,
                   "sparse-mesh: distance behind a point of its inside (sink) cell [m]");
+  flags.AddBool("free-requires-traversal", &options.mesh_to_grid.free_requires_traversal,
+                "sparse-mesh: outside cells are free only where a line of sight crossed them");
+  int64_t carve_radius = options.mesh_to_grid.carve_radius_voxels;
+  flags.AddInt64("carve-radius", &carve_radius,
+                 "sparse-mesh: radius of the free-space lines of sight [voxels]");
+  flags.AddDouble(
+      "carve-thick-stop", &options.mesh_to_grid.thick_stop_m,
+      "sparse-mesh: the thick part of a line of sight ends this far before its point [m]");
+  int64_t verify_window = options.sparse.verify_window_keyframes;
+  flags.AddInt64("verify-window", &verify_window,
+                 "sparse-mesh: keyframes that check a single-view point (0 = no verification)");
   flags.AddDouble("mesh-lambda", &options.meshing.lambda_quality,
                   "sparse-mesh: weight of the surface-quality term");
   flags.AddBool("all-reobservations", &options.sparse.apply_all_reobservations,
@@ -375,6 +386,12 @@ int RunMapping(const std::vector<std::string>& args) {
     return Fail("--points-per-keyframe: must be in [1, 100000]", 2);
   }
   options.sparse.target_points_per_keyframe = static_cast<int>(points_per_keyframe);
+  if (carve_radius < 0 || carve_radius > 8) return Fail("--carve-radius: must be in [0, 8]", 2);
+  options.mesh_to_grid.carve_radius_voxels = static_cast<int>(carve_radius);
+  if (verify_window < 0 || verify_window > 16) {
+    return Fail("--verify-window: must be in [0, 16]", 2);
+  }
+  options.sparse.verify_window_keyframes = static_cast<int>(verify_window);
   if (method_name == "sparse-mesh") {
     options.run_octomap = false;
   } else if (method_name == "octomap") {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <Eigen/Geometry>
 #include <unordered_map>
@@ -12,7 +13,17 @@
 
 namespace mav::mapping {
 
-bool MeshToGridOptions::IsValid(std::string* /*why*/) const { return true; }
+bool MeshToGridOptions::IsValid(std::string* why) const {
+  if (carve_radius_voxels < 0 || carve_radius_voxels > 8) {
+    if (why) *why = "carve_radius_voxels must be in [0, 8]";
+    return false;
+  }
+  if (!(thick_stop_m >= 0.0) || !std::isfinite(thick_stop_m)) {
+    if (why) *why = "thick_stop_m must be >= 0 [m]";
+    return false;
+  }
+  return true;
+}
 
 GridGeometry GridGeometryAround(const std::vector<MapPoint>& points,
                                 const std::vector<KeyframeView>& keyframes, double resolution,
@@ -142,16 +153,21 @@ bool TriangleTouchesCube(const Eigen::Vector3d& c, double h, const Eigen::Vector
   return true;
 }
 
-// Marks unknown voxels crossed by the segment from `from` to `to` as free, stopping one voxel
-// before `to` (Amanatides-Woo traversal).
-void CarveRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, VoxelGrid* grid) {
-  const GridGeometry& g = grid->geometry();
+constexpr uint8_t kSeen = 1;       // crossed by a line of sight
+constexpr uint8_t kSeenThick = 2;  // crossed by the thick part of a line of sight
+
+// Marks the voxels crossed by the segment from `from` to `to` in `mask` (x fastest, the grid's
+// layout), stopping one voxel before `to` (Amanatides-Woo traversal): kSeenThick up to
+// `thick_stop_m` before `to` when `thick`, kSeen after that (or everywhere when not `thick`).
+void TraceRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool thick,
+              double thick_stop_m, const VoxelGrid& grid, std::vector<uint8_t>* mask) {
+  const GridGeometry& g = grid.geometry();
   const Eigen::Vector3d d = to - from;
   const double length = d.norm();
   if (!(length > g.resolution)) return;
   const double t_end = 1.0 - g.resolution / length;
-  Eigen::Vector3i idx = grid->IndexOf(from);
-  const Eigen::Vector3i last = grid->IndexOf(to);
+  Eigen::Vector3i idx = grid.IndexOf(from);
+  const Eigen::Vector3i last = grid.IndexOf(to);
   Eigen::Vector3i step;
   Eigen::Vector3d t_max, t_delta;
   for (int a = 0; a < 3; ++a) {
@@ -169,11 +185,11 @@ void CarveRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, VoxelGrid*
       t_delta[a] = std::numeric_limits<double>::infinity();
     }
   }
+  const double t_thick = thick ? 1.0 - thick_stop_m / length : -1.0;
   double t = 0.0;
   while (t < t_end && idx != last) {
-    if (grid->InBounds(idx)) {
-      VoxelState& s = (*grid)[grid->Linear(idx.x(), idx.y(), idx.z())];
-      if (s == VoxelState::kUnknown) s = VoxelState::kFree;
+    if (grid.InBounds(idx)) {
+      (*mask)[grid.Linear(idx.x(), idx.y(), idx.z())] |= t < t_thick ? kSeenThick : kSeen;
     }
     int a = 0;
     if (t_max[1] < t_max[a]) a = 1;
@@ -181,6 +197,37 @@ void CarveRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, VoxelGrid*
     t = t_max[a];
     t_max[a] += t_delta[a];
     idx[a] += step[a];
+  }
+}
+
+// Spreads the kSeenThick bit of `mask` to every voxel within `radius` voxels (Chebyshev
+// distance): a box dilation, done as three separable 1D passes.
+void DilateThick(const Eigen::Vector3i& size, int radius, std::vector<uint8_t>* mask) {
+  const int64_t stride[3] = {1, size.x(), static_cast<int64_t>(size.x()) * size.y()};
+  std::vector<uint8_t> line;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int n = size[axis];
+    const int o1 = axis == 0 ? 1 : 0, o2 = axis == 2 ? 1 : 2;  // the two other axes
+    line.resize(n);
+    for (int b = 0; b < size[o2]; ++b) {
+      for (int a = 0; a < size[o1]; ++a) {
+        const int64_t base = a * stride[o1] + b * stride[o2];
+        // A voxel gets the bit if a voxel of the line within `radius` had it before this pass:
+        // one sweep for the nearest one ahead, one for the nearest one behind.
+        int run_end = -1;  // nearest index >= i that had the bit
+        for (int i = 0; i < n; ++i) line[i] = ((*mask)[base + i * stride[axis]] & kSeenThick) != 0;
+        for (int i = n - 1; i >= 0; --i) {
+          if (line[i]) run_end = i;
+          if (run_end >= 0 && run_end - i <= radius) (*mask)[base + i * stride[axis]] |= kSeenThick;
+        }
+        int run_start = -1;  // nearest index <= i that had the bit
+        for (int i = 0; i < n; ++i) {
+          if (line[i]) run_start = i;
+          if (run_start >= 0 && i - run_start <= radius)
+            (*mask)[base + i * stride[axis]] |= kSeenThick;
+        }
+      }
+    }
   }
 }
 
@@ -216,14 +263,20 @@ Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vecto
   if (options.carve_lines_of_sight) {
     std::unordered_map<int, Eigen::Vector3d> center_of;
     for (const KeyframeView& k : keyframes) center_of[k.id] = k.center_world;
+    std::vector<uint8_t> seen(static_cast<size_t>(grid.num_voxels()), 0);
+    const bool thick = options.carve_radius_voxels > 0;
     for (const MapPoint& p : points) {
       for (int id : p.keyframes) {
         const auto it = center_of.find(id);
         if (it == center_of.end()) {
           return Status::InvalidArgument("points: unknown keyframe id " + std::to_string(id));
         }
-        CarveRay(it->second, p.p_world, &grid);
+        TraceRay(it->second, p.p_world, thick, options.thick_stop_m, grid, &seen);
       }
+    }
+    if (thick) DilateThick(geometry.size, options.carve_radius_voxels, &seen);
+    for (int64_t i = 0; i < grid.num_voxels(); ++i) {
+      if (seen[i] != 0 && grid[i] == VoxelState::kUnknown) grid[i] = VoxelState::kFree;
     }
   }
   const double h = 0.5 * geometry.resolution * (1.0 + 1e-9);

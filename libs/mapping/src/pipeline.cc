@@ -158,7 +158,8 @@ Result<MappingOutput> MappingPipeline::Finish(const GridGeometry& geometry) {
     out.meshing = std::move(meshing).value();
     t.meshing_s = SecondsSince(start);
     start = MonotonicNowNs();
-    auto grid = MeshToOccupancy(out.meshing, out.points, out.keyframe_views, geometry,
+    // Free space from every line of sight, the rejected single-view points' included.
+    auto grid = MeshToOccupancy(out.meshing, sparse.AllPoints(), out.keyframe_views, geometry,
                                 impl_->options.mesh_to_grid);
     if (!grid.ok()) return Status(grid.status().code(), "sparse-mesh: " + grid.status().message());
     out.sparse_mesh_grid = std::move(grid).value();

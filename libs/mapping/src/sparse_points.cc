@@ -107,6 +107,16 @@ bool SparsePointsOptions::IsValid(std::string* why) const {
              !std::isfinite(merge_relative_depth_tolerance)) {
     msg << "merge_relative_depth_tolerance: must be finite and >= 0, got "
         << merge_relative_depth_tolerance;
+  } else if (verify_window_keyframes < 0) {
+    msg << "verify_window_keyframes: must be >= 0, got " << verify_window_keyframes;
+  } else if (!(verify_radius_px > 0) || !std::isfinite(verify_radius_px)) {
+    msg << "verify_radius_px: must be finite and > 0 [px], got " << verify_radius_px;
+  } else if (!(verify_disparity_tolerance_px > 0) ||
+             !std::isfinite(verify_disparity_tolerance_px)) {
+    msg << "verify_disparity_tolerance_px: must be finite and > 0 [px], got "
+        << verify_disparity_tolerance_px;
+  } else if (verify_max_descriptor_sad < 0) {
+    msg << "verify_max_descriptor_sad: must be >= 0, got " << verify_max_descriptor_sad;
   } else {
     return true;
   }
@@ -173,14 +183,37 @@ void SparsePointCloud::Reset() {
   keyframes_.clear();
   T_world_cams_.clear();
   keyframe_tracks_.clear();
+  recent_matches_.clear();
   stats_ = SparsePointsStats();
+}
+
+bool SparsePointCloud::Accepted(const Track& t) const {
+  if (options_.verify_window_keyframes == 0 || t.keyframes.size() >= 2 || t.supported) {
+    return true;
+  }
+  return t.checks == 0 && options_.keep_unchecked_points;
 }
 
 std::vector<MapPoint> SparsePointCloud::Points() const {
   std::vector<MapPoint> points;
   points.reserve(tracks_.size());
+  for (const Track& t : tracks_) {
+    if (Accepted(t)) points.push_back({t.p_world, t.keyframes});
+  }
+  return points;
+}
+
+std::vector<MapPoint> SparsePointCloud::AllPoints() const {
+  std::vector<MapPoint> points;
+  points.reserve(tracks_.size());
   for (const Track& t : tracks_) points.push_back({t.p_world, t.keyframes});
   return points;
+}
+
+int64_t SparsePointCloud::num_accepted_points() const {
+  int64_t n = 0;
+  for (const Track& t : tracks_) n += Accepted(t) ? 1 : 0;
+  return n;
 }
 
 Result<std::vector<StereoObservation>> SparsePointCloud::MatchStereo(const ImageView& left,
@@ -335,19 +368,80 @@ Result<int> SparsePointCloud::AddObservationsTimed(
         Eigen::Vector3d((o.u_left - rig_.cx) / rig_.fx * z, (o.v_left - rig_.cy) / rig_.fy * z, z);
   }
 
+  // Observations indexed by a grid of cells of about the gates' size.
+  const int cell = std::max(
+      4, static_cast<int>(
+             std::ceil(2 * std::max(options_.merge_radius_px, options_.verify_radius_px))));
+  const int cols = rig_.width / cell + 1, rows = rig_.height / cell + 1;
+  std::vector<std::vector<int>> grid(static_cast<size_t>(cols) * rows);
+  for (int i = 0; i < n; ++i) {
+    const int cu = std::clamp(static_cast<int>(observations[i].u_left) / cell, 0, cols - 1);
+    const int cv = std::clamp(static_cast<int>(observations[i].v_left) / cell, 0, rows - 1);
+    grid[static_cast<size_t>(cv) * cols + cu].push_back(i);
+  }
+  // Calls f(i) for every observation in the grid cells overlapping the disc (u, v, r).
+  auto for_each_near = [&](double u, double v, double r, auto&& f) {
+    const int cu0 = std::max(0, static_cast<int>(std::floor((u - r) / cell)));
+    const int cu1 = std::min(cols - 1, static_cast<int>(std::floor((u + r) / cell)));
+    const int cv0 = std::max(0, static_cast<int>(std::floor((v - r) / cell)));
+    const int cv1 = std::min(rows - 1, static_cast<int>(std::floor((v + r) / cell)));
+    for (int cv = cv0; cv <= cv1; ++cv) {
+      for (int cu = cu0; cu <= cu1; ++cu) {
+        for (int i : grid[static_cast<size_t>(cv) * cols + cu]) f(i);
+      }
+    }
+  };
+  const Eigen::Matrix3d R_wc = T_world_cam.RotationMatrix();
+  const Eigen::Vector3d t_wc = T_world_cam.Translation();
+  std::vector<Eigen::Vector3d> p_world(n);
+  for (int i = 0; i < n; ++i) p_world[i] = R_wc * p_cam[i] + t_wc;
+
+  // Verification (step 6): transfer the matches of the recent keyframes into this one and back.
+  std::vector<char> supported(n, 0);
+  std::vector<int> checks(n, 0);
+  if (options_.verify_window_keyframes > 0) {
+    const double r = options_.verify_radius_px;
+    const double dmin = fb / options_.max_depth_m, dmax = fb / options_.min_depth_m;
+    // Pixel and disparity of a camera-frame point, false if outside the image or depth range.
+    auto project = [&](const Eigen::Vector3d& pc, double* u, double* v, double* d) {
+      if (!(pc.z() > 0)) return false;
+      *d = fb / pc.z();
+      if (*d < dmin || *d > dmax) return false;
+      *u = rig_.fx * pc.x() / pc.z() + rig_.cx;
+      *v = rig_.fy * pc.y() / pc.z() + rig_.cy;
+      return *u >= 0 && *v >= 0 && *u < rig_.width && *v < rig_.height;
+    };
+    for (const KeyframeMatches& km : recent_matches_) {
+      const Eigen::Matrix3d R = km.T_cam_world.RotationMatrix();
+      const Eigen::Vector3d t = km.T_cam_world.Translation();
+      double u = 0, v = 0, d = 0;
+      for (int i = 0; i < n; ++i) checks[i] += project(R * p_world[i] + t, &u, &v, &d) ? 1 : 0;
+      for (size_t j = 0; j < km.p_world.size(); ++j) {
+        if (!project(R_cw * km.p_world[j] + t_cw, &u, &v, &d)) continue;
+        const int track = km.track[j];
+        if (track >= 0) ++tracks_[track].checks;
+        for_each_near(u, v, r, [&](int i) {
+          const StereoObservation& o = observations[i];
+          if (o.feature_class != km.feature_class[j]) return;
+          const double du = o.u_left - u, dv = o.v_left - v;
+          if (du * du + dv * dv > r * r) return;
+          if (std::abs(o.disparity - d) > options_.verify_disparity_tolerance_px) return;
+          if (localization::DescriptorSad(o.descriptor, km.descriptors[j]) >
+              static_cast<uint32_t>(options_.verify_max_descriptor_sad)) {
+            return;
+          }
+          supported[i] = 1;
+          if (track >= 0) tracks_[track].supported = true;
+        });
+      }
+    }
+  }
+  for (int i = 0; i < n; ++i) stats.supported += supported[i];
+
   // Re-observation candidates: (SAD, track, observation) triples that pass every gate.
   std::vector<int> match_of_observation(n, -1);
   if (options_.merge_window_keyframes > 0 && n > 0 && !tracks_.empty()) {
-    // Observations indexed by a grid of cells of about the gate's size.
     const double r = options_.merge_radius_px;
-    const int cell = std::max(4, static_cast<int>(std::ceil(2 * r)));
-    const int cols = rig_.width / cell + 1, rows = rig_.height / cell + 1;
-    std::vector<std::vector<int>> grid(static_cast<size_t>(cols) * rows);
-    for (int i = 0; i < n; ++i) {
-      const int cu = std::clamp(static_cast<int>(observations[i].u_left) / cell, 0, cols - 1);
-      const int cv = std::clamp(static_cast<int>(observations[i].v_left) / cell, 0, rows - 1);
-      grid[static_cast<size_t>(cv) * cols + cu].push_back(i);
-    }
     std::vector<int> candidates;
     const int first_kf = std::max(0, id - options_.merge_window_keyframes);
     for (int kf = first_kf; kf < id; ++kf) {
@@ -366,24 +460,16 @@ Result<int> SparsePointCloud::AddObservationsTimed(
       if (u < -r || v < -r || u > rig_.width + r || v > rig_.height + r) continue;
       const double depth_tol = std::max(options_.merge_min_depth_tolerance_m,
                                         options_.merge_relative_depth_tolerance * pc.z());
-      const int cu0 = std::max(0, static_cast<int>(std::floor((u - r) / cell)));
-      const int cu1 = std::min(cols - 1, static_cast<int>(std::floor((u + r) / cell)));
-      const int cv0 = std::max(0, static_cast<int>(std::floor((v - r) / cell)));
-      const int cv1 = std::min(rows - 1, static_cast<int>(std::floor((v + r) / cell)));
-      for (int cv = cv0; cv <= cv1; ++cv) {
-        for (int cu = cu0; cu <= cu1; ++cu) {
-          for (int i : grid[static_cast<size_t>(cv) * cols + cu]) {
-            const StereoObservation& o = observations[i];
-            if (o.feature_class != track.feature_class) continue;
-            const double du = o.u_left - u, dv = o.v_left - v;
-            if (du * du + dv * dv > r * r) continue;
-            if (std::abs(p_cam[i].z() - pc.z()) > depth_tol) continue;
-            const uint32_t sad = localization::DescriptorSad(o.descriptor, track.descriptor);
-            if (sad > static_cast<uint32_t>(options_.merge_max_descriptor_sad)) continue;
-            pairs.emplace_back(sad, t, i);
-          }
-        }
-      }
+      for_each_near(u, v, r, [&](int i) {
+        const StereoObservation& o = observations[i];
+        if (o.feature_class != track.feature_class) return;
+        const double du = o.u_left - u, dv = o.v_left - v;
+        if (du * du + dv * dv > r * r) return;
+        if (std::abs(p_cam[i].z() - pc.z()) > depth_tol) return;
+        const uint32_t sad = localization::DescriptorSad(o.descriptor, track.descriptor);
+        if (sad > static_cast<uint32_t>(options_.merge_max_descriptor_sad)) return;
+        pairs.emplace_back(sad, t, i);
+      });
     }
     std::sort(pairs.begin(), pairs.end());
     std::vector<char> track_taken;  // indexed by position in `candidates`
@@ -412,6 +498,7 @@ Result<int> SparsePointCloud::AddObservationsTimed(
     std::sort(b.begin(), b.end(), [&](int a, int c) {
       const bool ra = match_of_observation[a] >= 0, rc = match_of_observation[c] >= 0;
       if (ra != rc) return ra;
+      if (supported[a] != supported[c]) return supported[a] > supported[c];
       if (observations[a].stereo_cost != observations[c].stereo_cost) {
         return observations[a].stereo_cost < observations[c].stereo_cost;
       }
@@ -439,33 +526,51 @@ Result<int> SparsePointCloud::AddObservationsTimed(
   T_world_cams_.push_back(T_world_cam);
   keyframe_tracks_.emplace_back();
   std::vector<int>& seen = keyframe_tracks_.back();
-  const Eigen::Matrix3d R_wc = T_world_cam.RotationMatrix();
-  const Eigen::Vector3d t_wc = T_world_cam.Translation();
+  std::vector<int> track_of_observation(n, -1);
   for (int i : selected) {
     const StereoObservation& o = observations[i];
-    const Eigen::Vector3d p_world = R_wc * p_cam[i] + t_wc;
     const double z = p_cam[i].z();
     const double w = 1.0 / (z * z * z * z);
     const int t = match_of_observation[i];
     if (t >= 0) {
       Track& track = tracks_[t];
-      track.p_world = (track.p_world * track.weight + p_world * w) / (track.weight + w);
+      track.p_world = (track.p_world * track.weight + p_world[i] * w) / (track.weight + w);
       track.weight += w;
       track.keyframes.push_back(id);
       track.descriptor = o.descriptor;
       seen.push_back(t);
+      track_of_observation[i] = t;
       ++stats.reobserved;
     } else {
       Track track;
-      track.p_world = p_world;
+      track.p_world = p_world[i];
       track.weight = w;
+      track.checks = checks[i];
+      track.supported = supported[i] != 0;
       track.keyframes = {id};
       track.descriptor = o.descriptor;
       track.feature_class = o.feature_class;
       seen.push_back(static_cast<int>(tracks_.size()));
+      track_of_observation[i] = static_cast<int>(tracks_.size());
       tracks_.push_back(std::move(track));
       ++stats.new_points;
     }
+  }
+  if (options_.verify_window_keyframes > 0) {
+    if (static_cast<int>(recent_matches_.size()) >= options_.verify_window_keyframes) {
+      recent_matches_.erase(recent_matches_.begin());
+    }
+    KeyframeMatches km;
+    km.T_cam_world = T_cam_world;
+    km.p_world = std::move(p_world);
+    km.feature_class.reserve(n);
+    km.descriptors.reserve(n);
+    for (const StereoObservation& o : observations) {
+      km.feature_class.push_back(o.feature_class);
+      km.descriptors.push_back(o.descriptor);
+    }
+    km.track = std::move(track_of_observation);
+    recent_matches_.push_back(std::move(km));
   }
   stats.id = id;
   stats.selected = static_cast<int>(selected.size());

@@ -1,19 +1,28 @@
 #include "mav/mapping/mesh_to_grid.h"
 
+#include <utility>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 namespace mav::mapping {
 namespace {
 
-// One inside tetrahedron spanning the unit corner: voxel centres with x + y + z <= 1 (all
-// coordinates positive) are occupied; the surface triangles touch the rest of its boundary cubes.
-TEST(MeshToOccupancyTest, SingleTetrahedron) {
+// A meshing result of one inside-labelled tetrahedron with these corners.
+MeshingResult OneInsideTetrahedron(std::vector<Eigen::Vector3d> corners) {
   MeshingResult m;
-  m.points = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  m.points = std::move(corners);
   Tetrahedron t;
   t.vertices = {0, 1, 2, 3};
   t.inside = true;
   m.tetrahedra.push_back(t);
+  return m;
+}
+
+// One inside tetrahedron spanning the unit corner: voxel centres with x + y + z <= 1 (all
+// coordinates positive) are occupied; the surface triangles touch the rest of its boundary cubes.
+TEST(MeshToOccupancyTest, SingleTetrahedron) {
+  const MeshingResult m = OneInsideTetrahedron({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}});
   GridGeometry g;
   g.origin = Eigen::Vector3d(-0.5, -0.5, -0.5);
   g.resolution = 0.1;
@@ -71,6 +80,53 @@ TEST(MeshToOccupancyTest, SurfaceTrianglesAndCarving) {
   EXPECT_EQ(grid->at({5, 5, 2}), VoxelState::kFree);
   EXPECT_EQ(grid->at({5, 5, 0}), VoxelState::kUnknown);  // the point's own voxel
   EXPECT_EQ(grid->at({4, 5, 9}), VoxelState::kUnknown);
+}
+
+// A thick line of sight frees the unknown voxels next to its voxels up to thick_stop_m before the
+// point, then only its own voxels; it never frees an occupied voxel.
+TEST(MeshToOccupancyTest, ThickLinesOfSight) {
+  // An inside tetrahedron near (0.25, 0.6, 0.6): occupied voxels next to the ray.
+  const MeshingResult m = OneInsideTetrahedron(
+      {{0.12, 0.62, 0.62}, {0.38, 0.62, 0.62}, {0.25, 0.72, 0.45}, {0.25, 0.52, 0.72}});
+  GridGeometry g;
+  g.origin = Eigen::Vector3d(0, 0, 0);
+  g.resolution = 0.1;
+  g.size = Eigen::Vector3i(20, 10, 10);
+  std::vector<MapPoint> points(1);
+  points[0].p_world = Eigen::Vector3d(1.85, 0.55, 0.55);  // voxel (18, 5, 5)
+  points[0].keyframes = {3};
+  std::vector<KeyframeView> keyframes(1);
+  keyframes[0].id = 3;
+  keyframes[0].center_world = Eigen::Vector3d(0.05, 0.55, 0.55);  // voxel (0, 5, 5)
+  MeshToGridOptions options;
+  options.carve_radius_voxels = 1;
+  options.thick_stop_m = 0.5;
+  const auto grid = MeshToOccupancy(m, points, keyframes, g, options);
+  ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+  const int64_t occupied = grid->Count(VoxelState::kOccupied);
+  ASSERT_GT(occupied, 0);
+  for (int i = 0; i < 20; ++i) {
+    SCOPED_TRACE("i = " + std::to_string(i));
+    // Thick part: voxel i is entered at t = (0.1 i - 0.05) / 1.8 < 1 - 0.5 / 1.8 for i <= 13,
+    // and the neighbourhood of voxel 13 reaches x = 14.
+    const bool thick = i <= 14;
+    for (int j = 3; j <= 7; ++j) {
+      for (int k = 3; k <= 7; ++k) {
+        const VoxelState s = grid->at({i, j, k});
+        if (s == VoxelState::kOccupied) continue;  // never freed
+        const bool on_ray = j == 5 && k == 5 && i <= 17;
+        const bool near = std::abs(j - 5) <= 1 && std::abs(k - 5) <= 1;
+        const bool expect_free = on_ray || (thick && near);
+        EXPECT_EQ(s, expect_free ? VoxelState::kFree : VoxelState::kUnknown) << j << " " << k;
+      }
+    }
+  }
+  EXPECT_EQ(grid->Count(VoxelState::kOccupied), occupied);
+  EXPECT_EQ(grid->at({18, 5, 5}), VoxelState::kUnknown);  // the point's own voxel
+  options.carve_radius_voxels = -1;
+  const auto bad = MeshToOccupancy(m, points, keyframes, g, options);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("carve_radius_voxels"), std::string::npos);
 }
 
 TEST(MeshToOccupancyTest, BadInput) {

@@ -244,6 +244,120 @@ TEST(SparsePointsTest, GatesRejectWrongDescriptorDepthAndOldKeyframes) {
   EXPECT_EQ(cloud->stats().keyframes.back().reobserved, 0);
 }
 
+// Step 6: a single-view point whose disparity is grossly wrong (the aperture problem) is not
+// reproduced by the neighbouring keyframe's stereo matches and is left out of Points(); correct
+// single-view points supported by the other keyframe's matches, and points the other keyframe
+// cannot see (unchecked), are kept.
+TEST(SparsePointsTest, VerificationRejectsSingleViewOutliers) {
+  const camera::RectifiedStereo rig = Rig();
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> y(-1.5, 1.5), z(0.5, 2.5);
+  std::uniform_int_distribution<int> byte(0, 255), cls(0, 3);
+  auto random_descriptor = [&] {
+    localization::Descriptor d;
+    for (auto& b : d.bytes) b = static_cast<uint8_t>(byte(rng));
+    return d;
+  };
+  SyntheticPoints good, bad;
+  for (int i = 0; i < 40; ++i) {
+    good.p_world.emplace_back(4.0, y(rng), z(rng));
+    good.descriptors.push_back(random_descriptor());
+    good.classes.push_back(cls(rng));
+  }
+  for (int i = 0; i < 10; ++i) {
+    bad.p_world.emplace_back(4.0, y(rng), z(rng));
+    bad.descriptors.push_back(random_descriptor());
+    bad.classes.push_back(cls(rng));
+  }
+  const Eigen::Vector3d unseen(4.0, -3.1, 1.5);  // in keyframe 0's view only
+  const std::vector<geometry::SE3> poses = {PoseLookingAlongX({0.0, 0.0, 1.5}),
+                                            PoseLookingAlongX({0.3, 0.3, 1.5})};
+  for (const bool verify : {true, false}) {
+    SCOPED_TRACE(verify ? "verify" : "no verification");
+    SparsePointsOptions options;
+    options.target_points_per_keyframe = 1000;
+    options.merge_window_keyframes = 0;  // every observation is a new single-view point
+    options.verify_window_keyframes = verify ? 2 : 0;
+    auto cloud = SparsePointCloud::Create(rig, options);
+    ASSERT_TRUE(cloud.ok());
+    for (int k = 0; k < 2; ++k) {
+      std::vector<StereoObservation> obs;
+      for (size_t i = 0; i < good.p_world.size(); ++i) {
+        auto o = Observe(rig, poses[k], good.p_world[i], good.classes[i], good.descriptors[i]);
+        ASSERT_TRUE(o.has_value());
+        obs.push_back(*o);
+      }
+      if (k == 0) {
+        for (size_t i = 0; i < bad.p_world.size(); ++i) {
+          auto o = Observe(rig, poses[0], bad.p_world[i], bad.classes[i], bad.descriptors[i]);
+          ASSERT_TRUE(o.has_value());
+          o->disparity += 6.0f;  // ~12 px true disparity: floats at ~2.7 m instead of 4 m
+          obs.push_back(*o);
+        }
+        auto o = Observe(rig, poses[0], unseen, 0, random_descriptor());
+        ASSERT_TRUE(o.has_value());
+        obs.push_back(*o);
+      } else {
+        ASSERT_FALSE(Observe(rig, poses[1], unseen, 0, random_descriptor()).has_value());
+      }
+      ASSERT_TRUE(cloud->AddKeyframeObservations(obs, poses[k]).ok());
+    }
+    EXPECT_EQ(cloud->num_points(), 40 + 40 + 10 + 1);
+    const std::vector<MapPoint> points = cloud->Points();
+    EXPECT_EQ(cloud->num_accepted_points(), static_cast<int64_t>(points.size()));
+    int near_good = 0, floating = 0, unseen_kept = 0;
+    for (const MapPoint& p : points) {
+      EXPECT_EQ(p.keyframes.size(), 1u);
+      double best = 1e9;
+      for (const auto& q : good.p_world) best = std::min(best, (q - p.p_world).norm());
+      near_good += best < 1e-3 ? 1 : 0;
+      floating += p.p_world.x() < 3.5 ? 1 : 0;
+      unseen_kept += (p.p_world - unseen).norm() < 1e-3 ? 1 : 0;
+    }
+    EXPECT_EQ(near_good, 80);
+    EXPECT_EQ(unseen_kept, 1);
+    EXPECT_EQ(floating, verify ? 0 : 10);
+    EXPECT_EQ(points.size(), verify ? 81u : 91u);
+    EXPECT_EQ(cloud->stats().keyframes[1].supported, verify ? 40 : 0);
+    // The lines of sight of the rejected points are kept for the free space.
+    const std::vector<MapPoint> all = cloud->AllPoints();
+    EXPECT_EQ(all.size(), 91u);
+    int all_floating = 0;
+    for (const MapPoint& p : all) all_floating += p.p_world.x() < 3.5 ? 1 : 0;
+    EXPECT_EQ(all_floating, 10);
+  }
+  // With keep_unchecked_points = false only points that another keyframe could check and
+  // supported remain: the point outside keyframe 1's view goes too.
+  SparsePointsOptions strict;
+  strict.target_points_per_keyframe = 1000;
+  strict.merge_window_keyframes = 0;
+  strict.keep_unchecked_points = false;
+  auto cloud = SparsePointCloud::Create(rig, strict);
+  ASSERT_TRUE(cloud.ok());
+  for (int k = 0; k < 2; ++k) {
+    std::vector<StereoObservation> obs;
+    for (size_t i = 0; i < good.p_world.size(); ++i) {
+      obs.push_back(*Observe(rig, poses[k], good.p_world[i], good.classes[i], good.descriptors[i]));
+    }
+    if (k == 0) obs.push_back(*Observe(rig, poses[0], unseen, 0, random_descriptor()));
+    ASSERT_TRUE(cloud->AddKeyframeObservations(obs, poses[k]).ok());
+  }
+  EXPECT_EQ(cloud->num_points(), 81);
+  EXPECT_EQ(cloud->Points().size(), 80u);
+}
+
+TEST(SparsePointsOptionsTest, NamesTheInvalidVerificationField) {
+  std::string why;
+  SparsePointsOptions o;
+  o.verify_disparity_tolerance_px = 0;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("verify_disparity_tolerance_px"), std::string::npos) << why;
+  o = SparsePointsOptions();
+  o.verify_window_keyframes = -1;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_NE(why.find("verify_window_keyframes"), std::string::npos) << why;
+}
+
 // The per-keyframe budget bounds the selection; with apply_all_reobservations every
 // re-observation of an existing point is applied on top of it.
 TEST(SparsePointsTest, BudgetAndApplyAllReobservations) {

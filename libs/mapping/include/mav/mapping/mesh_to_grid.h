@@ -8,9 +8,13 @@
 //     `free_requires_traversal`, only if a line of sight crossed that tetrahedron; else kUnknown);
 //  3. a voxel whose centre lies in an inside-labelled finite tetrahedron is kOccupied;
 //  4. with `carve_lines_of_sight`, voxels still kUnknown that a line of sight crosses (camera to
-//  one
-//     voxel short of the point, 3D DDA) become kFree: this is the observed free space outside the
-//     convex hull of the points, e.g. between the cameras and an object seen from around it;
+//     one voxel short of the point, 3D DDA) become kFree: this is the observed free space outside
+//     the convex hull of the points, e.g. between the cameras and an object seen from around it.
+//     With `carve_radius_voxels` = r > 0 the ray is thick: the kUnknown voxels within r voxels
+//     (Chebyshev distance) of the ray's voxel become kFree too, up to `thick_stop_m` before the
+//     point (the last part of the ray stays thin so the surface behind the point is not eaten).
+//     A line of sight samples a thin cone, not a line: the small outside cells just in front of a
+//     surface that no ray's centre line crossed are free space the cameras saw;
 //  5. with `occupy_surface_voxels`, every voxel whose cube touches a surface triangle is kOccupied
 //     (exact triangle/box overlap), so thin structures survive whatever the centre sampling missed.
 // Space outside the convex hull of the points that no line of sight crossed stays kUnknown: the
@@ -34,6 +38,9 @@ struct MeshToGridOptions {
   // Rule 5 on/off. Off by default: it keeps structures thinner than a voxel but thickens every
   // surface by up to one voxel, which cost 0.04-0.06 MCC on the synthetic room (docs/mapping.md).
   bool occupy_surface_voxels = false;
+  // Rule 4's ray radius [voxels, >= 0] and where its thick part ends [m before the point, >= 0].
+  int carve_radius_voxels = 0;
+  double thick_stop_m = 0.2;
 
   bool IsValid(std::string* why) const;
 };
@@ -45,7 +52,9 @@ GridGeometry GridGeometryAround(const std::vector<MapPoint>& points,
                                 double resolution = 0.05, double padding = 0.2);
 
 // Rasterises `meshing` into a grid of the given geometry (pass the ground-truth grid's geometry to
-// compare voxel by voxel). `points` and `keyframes` are those given to BuildMesh (for rule 4).
+// compare voxel by voxel). `points` and `keyframes` give the lines of sight of rule 4: the points
+// given to BuildMesh, or a superset (e.g. SparsePointCloud::AllPoints(), which keeps the lines of
+// sight of the single-view points the verification left out of the mesh).
 // INVALID_ARGUMENT for an invalid geometry/options or tetrahedra that index outside `points`.
 Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vector<MapPoint>& points,
                                   const std::vector<KeyframeView>& keyframes,

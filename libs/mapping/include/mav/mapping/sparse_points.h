@@ -33,6 +33,21 @@
 //  5. A selected re-observation adds the keyframe to the point's visibility and moves the point to
 //     the inverse-variance weighted mean of its triangulations (stereo depth variance grows as Z^4,
 //     so the weight is 1 / Z^4); any other selected match becomes a new point.
+//  6. Two-keyframe verification of single-view points (docs/mapping.md, "Outlier rejection"):
+//     every stereo match of a keyframe (selected or not) is checked against every stereo match of
+//     the `verify_window_keyframes` keyframes before it, with the known poses. A pair supports
+//     each other when, transferred into the later keyframe, the earlier match lands within
+//     `verify_radius_px` of the later one, at a disparity within `verify_disparity_tolerance_px`,
+//     of the same feature class and with a descriptor SAD of at most `verify_max_descriptor_sad`.
+//     A point is "checked" by a keyframe of the window (before or after it) in whose image and
+//     depth range it projects. Points() leaves out a point seen by one keyframe only that was
+//     checked at least once and never supported: a wrong disparity (the aperture problem along
+//     horizontal structures, repetitive texture) triangulates to a point that another viewpoint's
+//     independent stereo match does not reproduce, whereas a true surface point is re-matched
+//     at the transferred position. Selection (step 4) prefers supported matches after
+//     re-observations. The rejected points stay in AllPoints(): their depth is doubtful but the
+//     space in front of them was seen, so they still give lines of sight for the free space
+//     (mesh_to_grid.h rule 4).
 //
 // The poses are trusted (ground truth in the evaluation, as the paper's Vicon poses): there is no
 // bundle adjustment. Not thread-safe; one thread owns a SparsePointCloud.
@@ -89,6 +104,16 @@ struct SparsePointsOptions {
   // re-observations only.
   bool apply_all_reobservations = false;
 
+  // Two-keyframe verification of single-view points (step 6 of the header comment).
+  // 0 disables it (Points() then returns every point).
+  int verify_window_keyframes = 2;
+  double verify_radius_px = 3.0;
+  double verify_disparity_tolerance_px = 1.0;
+  int verify_max_descriptor_sad = 2500;  // of 8160
+  // Keep single-view points that no keyframe of the window could check (outside every
+  // neighbour's image or depth range: the first and last views of a surface).
+  bool keep_unchecked_points = true;
+
   // Extract the left and right features on two threads (the images are independent).
   bool parallel_extraction = true;
 
@@ -116,6 +141,7 @@ struct SparseKeyframeStats {
   int selected = 0;          // matches kept (~target_points_per_keyframe)
   int reobserved = 0;        // of the selected: merged into existing points
   int new_points = 0;        // of the selected: new points
+  int supported = 0;         // matches supported by a match of an earlier keyframe (step 6)
   double extraction_ms = 0;  // feature extraction, both images
   double matching_ms = 0;    // stereo matching and sub-pixel refinement
   double merging_ms = 0;     // projection, gating, selection, triangulation, update
@@ -159,8 +185,14 @@ class SparsePointCloud {
                                                      SparseKeyframeStats* stats = nullptr);
 
   // The cloud for the mesher: every point with the ids of the keyframes that saw it (ascending),
-  // and every keyframe's optical centre.
+  // and every keyframe's optical centre. With verification on (verify_window_keyframes > 0) the
+  // single-view points rejected by step 6 are left out; num_points() still counts them.
   std::vector<MapPoint> Points() const;
+  // Every point, the rejected single-view ones included: the lines of sight that observed free
+  // space (a rejected point's depth is doubtful, the space in front of it was still seen).
+  std::vector<MapPoint> AllPoints() const;
+  // Points() would return this many (= num_points() - rejected single-view points).
+  int64_t num_accepted_points() const;
   const std::vector<KeyframeView>& keyframes() const { return keyframes_; }
   const std::vector<geometry::SE3>& keyframe_poses() const { return T_world_cams_; }
   int64_t num_points() const { return static_cast<int64_t>(tracks_.size()); }
@@ -181,8 +213,19 @@ class SparsePointCloud {
     std::vector<int> keyframes;
     localization::Descriptor descriptor;  // of the latest observation
     int feature_class = 0;
+    int checks = 0;          // keyframes of the verification window it projects into (step 6)
+    bool supported = false;  // a match of another keyframe reproduced it (step 6)
+  };
+  // Every stereo match of a recent keyframe, for the verification (step 6).
+  struct KeyframeMatches {
+    geometry::SE3 T_cam_world;
+    std::vector<Eigen::Vector3d> p_world;
+    std::vector<int> feature_class;
+    std::vector<localization::Descriptor> descriptors;
+    std::vector<int> track;  // the track the match became or re-observed, -1 if not selected
   };
   struct Extractors;
+  bool Accepted(const Track& t) const;
 
   SparsePointCloud(const camera::RectifiedStereo& rig, const SparsePointsOptions& options);
   Result<int> AddObservationsTimed(const std::vector<StereoObservation>& observations,
@@ -194,6 +237,7 @@ class SparsePointCloud {
   std::vector<KeyframeView> keyframes_;
   std::vector<geometry::SE3> T_world_cams_;
   std::vector<std::vector<int>> keyframe_tracks_;  // tracks observed by each keyframe
+  std::vector<KeyframeMatches> recent_matches_;    // the last verify_window_keyframes keyframes
   SparsePointsStats stats_;
   std::unique_ptr<Extractors> extractors_;
 };

@@ -365,6 +365,8 @@ int RunMapping(const std::vector<std::string>& args) {
   int64_t verify_window = options.sparse.verify_window_keyframes;
   flags.AddInt64("verify-window", &verify_window,
                  "sparse-mesh: keyframes that check a single-view point (0 = no verification)");
+  flags.AddBool("keep-unchecked", &options.sparse.keep_unchecked_points,
+                "sparse-mesh: mesh single-view points that no other keyframe could check");
   flags.AddDouble("mesh-lambda", &options.meshing.lambda_quality,
                   "sparse-mesh: weight of the surface-quality term");
   flags.AddBool("all-reobservations", &options.sparse.apply_all_reobservations,

@@ -523,6 +523,7 @@ int RunMapping(const std::vector<std::string>& args) {
       json.Set(name, "meshing_s", t.meshing_s);
       json.Set(name, "to_grid_s", t.to_grid_s);
       json.Set(name, "points", static_cast<double>(out->points.size()));
+      json.Set(name, "lines_of_sight", static_cast<double>(out->lines_of_sight));
       json.Set(name, "observations", static_cast<double>(out->sparse_stats.TotalSelected()));
       json.Set(name, "mesh_triangles", static_cast<double>(out->meshing.mesh.triangles.size()));
     } else {
@@ -553,10 +554,10 @@ int RunMapping(const std::vector<std::string>& args) {
     std::printf(
         "\nsparse-mesh stages: features %.2f s, stereo %.2f s, merge %.2f s, meshing %.2f s, "
         "to grid %.2f s; %zu points (%lld seen from >1 keyframe), %lld observations, %zu "
-        "triangles\n",
+        "triangles, %lld lines of sight for the free space\n",
         t.extraction_s, t.matching_s, t.merging_s, t.meshing_s, t.to_grid_s, out->points.size(),
         static_cast<long long>(multi), static_cast<long long>(out->sparse_stats.TotalSelected()),
-        out->meshing.mesh.triangles.size());
+        out->meshing.mesh.triangles.size(), static_cast<long long>(out->lines_of_sight));
   }
   if (out->has_octomap) {
     const mapping::OctomapTiming& t = out->octomap_timing;

@@ -701,7 +701,7 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(Engine* engine, const BuildRe
   std::vector<mapping::KeyframeView> views;
   if (sparse != nullptr) {
     points = sparse->Points();
-    sight_points = sparse->AllPoints();
+    sight_points = sparse->SightPoints();
     views = sparse->keyframes();
     if (request.min_visibility > 1) {
       std::erase_if(points, [&](const mapping::MapPoint& p) {

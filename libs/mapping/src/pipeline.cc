@@ -158,8 +158,13 @@ Result<MappingOutput> MappingPipeline::Finish(const GridGeometry& geometry) {
     out.meshing = std::move(meshing).value();
     t.meshing_s = SecondsSince(start);
     start = MonotonicNowNs();
-    // Free space from every line of sight, the rejected single-view points' included.
-    auto grid = MeshToOccupancy(out.meshing, sparse.AllPoints(), out.keyframe_views, geometry,
+    // Free space from every line of sight: to the rejected single-view points too, and to the
+    // verified stereo matches that became no point.
+    const std::vector<MapPoint> sight_points = sparse.SightPoints();
+    out.lines_of_sight = 0;
+    for (const MapPoint& p : sight_points)
+      out.lines_of_sight += static_cast<int64_t>(p.keyframes.size());
+    auto grid = MeshToOccupancy(out.meshing, sight_points, out.keyframe_views, geometry,
                                 impl_->options.mesh_to_grid);
     if (!grid.ok()) return Status(grid.status().code(), "sparse-mesh: " + grid.status().message());
     out.sparse_mesh_grid = std::move(grid).value();

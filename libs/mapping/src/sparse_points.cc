@@ -184,6 +184,7 @@ void SparsePointCloud::Reset() {
   T_world_cams_.clear();
   keyframe_tracks_.clear();
   recent_matches_.clear();
+  extra_sight_lines_.clear();
   stats_ = SparsePointsStats();
 }
 
@@ -207,6 +208,12 @@ std::vector<MapPoint> SparsePointCloud::AllPoints() const {
   std::vector<MapPoint> points;
   points.reserve(tracks_.size());
   for (const Track& t : tracks_) points.push_back({t.p_world, t.keyframes});
+  return points;
+}
+
+std::vector<MapPoint> SparsePointCloud::SightPoints() const {
+  std::vector<MapPoint> points = AllPoints();
+  points.insert(points.end(), extra_sight_lines_.begin(), extra_sight_lines_.end());
   return points;
 }
 
@@ -411,7 +418,8 @@ Result<int> SparsePointCloud::AddObservationsTimed(
       *v = rig_.fy * pc.y() / pc.z() + rig_.cy;
       return *u >= 0 && *v >= 0 && *u < rig_.width && *v < rig_.height;
     };
-    for (const KeyframeMatches& km : recent_matches_) {
+    for (KeyframeMatches& km : recent_matches_) {
+      std::vector<char>& km_in_sight = km.in_sight_lines;
       const Eigen::Matrix3d R = km.T_cam_world.RotationMatrix();
       const Eigen::Vector3d t = km.T_cam_world.Translation();
       double u = 0, v = 0, d = 0;
@@ -431,7 +439,12 @@ Result<int> SparsePointCloud::AddObservationsTimed(
             return;
           }
           supported[i] = 1;
-          if (track >= 0) tracks_[track].supported = true;
+          if (track >= 0) {
+            tracks_[track].supported = true;
+          } else if (!km_in_sight[j]) {
+            km_in_sight[j] = 1;
+            extra_sight_lines_.push_back({km.p_world[j], {km.id}});
+          }
         });
       }
     }
@@ -560,7 +573,13 @@ Result<int> SparsePointCloud::AddObservationsTimed(
     if (static_cast<int>(recent_matches_.size()) >= options_.verify_window_keyframes) {
       recent_matches_.erase(recent_matches_.begin());
     }
+    for (int i = 0; i < n; ++i) {
+      if (supported[i] && track_of_observation[i] < 0) {
+        extra_sight_lines_.push_back({p_world[i], {id}});
+      }
+    }
     KeyframeMatches km;
+    km.id = id;
     km.T_cam_world = T_cam_world;
     km.p_world = std::move(p_world);
     km.feature_class.reserve(n);
@@ -569,6 +588,8 @@ Result<int> SparsePointCloud::AddObservationsTimed(
       km.feature_class.push_back(o.feature_class);
       km.descriptors.push_back(o.descriptor);
     }
+    km.in_sight_lines.assign(n, 0);
+    for (int i = 0; i < n; ++i) km.in_sight_lines[i] = supported[i] && track_of_observation[i] < 0;
     km.track = std::move(track_of_observation);
     recent_matches_.push_back(std::move(km));
   }

@@ -346,6 +346,48 @@ TEST(SparsePointsTest, VerificationRejectsSingleViewOutliers) {
   EXPECT_EQ(cloud->Points().size(), 80u);
 }
 
+// The stereo matches that were not selected but that a neighbouring keyframe reproduced become
+// extra lines of sight (SightPoints), never the wrong-disparity ones.
+TEST(SparsePointsTest, SightPointsAddVerifiedUnselectedMatches) {
+  const camera::RectifiedStereo rig = Rig();
+  const SyntheticPoints good = MakeWallPoints(60, 5);
+  SparsePointsOptions options;
+  options.target_points_per_keyframe = 10;
+  options.merge_window_keyframes = 0;
+  auto cloud = SparsePointCloud::Create(rig, options);
+  ASSERT_TRUE(cloud.ok());
+  const geometry::SE3 poses[2] = {PoseLookingAlongX({0.0, 0.0, 1.5}),
+                                  PoseLookingAlongX({0.3, 0.3, 1.5})};
+  for (int k = 0; k < 2; ++k) {
+    std::vector<StereoObservation> obs;
+    for (size_t i = 0; i < good.p_world.size(); ++i) {
+      const auto o = Observe(rig, poses[k], good.p_world[i], good.classes[i], good.descriptors[i]);
+      ASSERT_TRUE(o.has_value()) << "point " << i << " outside keyframe " << k;
+      obs.push_back(*o);
+      if (k == 1 && i < 5) obs.back().disparity += 6.0f;  // wrong depth: reproduces nothing
+    }
+    ASSERT_TRUE(cloud->AddKeyframeObservations(obs, poses[k]).ok());
+  }
+  EXPECT_EQ(cloud->num_points(), 20);
+  const std::vector<MapPoint> all = cloud->AllPoints();
+  const std::vector<MapPoint> sight = cloud->SightPoints();
+  ASSERT_GE(sight.size(), all.size());
+  // Keyframe 0: its 50 unselected matches except those of the 5 points keyframe 1 got wrong
+  // (45-50); keyframe 1: its 55 reproduced matches minus the 10 selected (preferred) = 45.
+  // Every extra lies on a true point and has one keyframe.
+  const size_t extras = sight.size() - all.size();
+  EXPECT_GE(extras, 90u);
+  EXPECT_LE(extras, 95u);
+  for (size_t i = all.size(); i < sight.size(); ++i) {
+    ASSERT_EQ(sight[i].keyframes.size(), 1u);
+    double best = 1e9;
+    for (const auto& q : good.p_world) best = std::min(best, (q - sight[i].p_world).norm());
+    EXPECT_LT(best, 1e-3) << "extra line of sight " << i << " is not on a true point";
+  }
+  cloud->Reset();
+  EXPECT_TRUE(cloud->SightPoints().empty());
+}
+
 TEST(SparsePointsOptionsTest, NamesTheInvalidVerificationField) {
   std::string why;
   SparsePointsOptions o;

@@ -53,8 +53,9 @@ GridGeometry GridGeometryAround(const std::vector<MapPoint>& points,
 
 // Rasterises `meshing` into a grid of the given geometry (pass the ground-truth grid's geometry to
 // compare voxel by voxel). `points` and `keyframes` give the lines of sight of rule 4: the points
-// given to BuildMesh, or a superset (e.g. SparsePointCloud::AllPoints(), which keeps the lines of
-// sight of the single-view points the verification left out of the mesh).
+// given to BuildMesh, or a superset (e.g. SparsePointCloud::SightPoints(): also the lines of sight
+// of the single-view points the verification left out of the mesh and of the verified stereo
+// matches that were not selected as points).
 // INVALID_ARGUMENT for an invalid geometry/options or tetrahedra that index outside `points`.
 Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vector<MapPoint>& points,
                                   const std::vector<KeyframeView>& keyframes,

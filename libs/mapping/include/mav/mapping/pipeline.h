@@ -106,6 +106,7 @@ struct MappingOutput {
   std::vector<KeyframeView> keyframe_views;  // camera centres (ids index keyframe_poses)
   MeshingResult meshing;                     // mesh, labelled tetrahedra, stats
   VoxelGrid sparse_mesh_grid;                // on the geometry given to Finish()
+  int64_t lines_of_sight = 0;                // given to MeshToOccupancy (SightPoints())
   SparsePointsStats sparse_stats;
   SparseMeshTiming sparse_mesh_timing;
 

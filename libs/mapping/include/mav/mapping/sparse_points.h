@@ -47,7 +47,9 @@
 //     at the transferred position. Selection (step 4) prefers supported matches after
 //     re-observations. The rejected points stay in AllPoints(): their depth is doubtful but the
 //     space in front of them was seen, so they still give lines of sight for the free space
-//     (mesh_to_grid.h rule 4).
+//     (mesh_to_grid.h rule 4). The matches that a neighbour reproduced but the selection did not
+//     take become extra lines of sight too (SightPoints()): the mesh keeps the paper's ~100 points
+//     per keyframe, the free space gets every verified observation.
 //
 // The poses are trusted (ground truth in the evaluation, as the paper's Vicon poses): there is no
 // bundle adjustment. Not thread-safe; one thread owns a SparsePointCloud.
@@ -191,6 +193,10 @@ class SparsePointCloud {
   // Every point, the rejected single-view ones included: the lines of sight that observed free
   // space (a rejected point's depth is doubtful, the space in front of it was still seen).
   std::vector<MapPoint> AllPoints() const;
+  // AllPoints() plus the stereo matches that were not selected but that the verification
+  // reproduced in a neighbouring keyframe (each with the one keyframe that matched it): many more
+  // lines of sight, each to a reliable point, for the free space.
+  std::vector<MapPoint> SightPoints() const;
   // Points() would return this many (= num_points() - rejected single-view points).
   int64_t num_accepted_points() const;
   const std::vector<KeyframeView>& keyframes() const { return keyframes_; }
@@ -218,11 +224,13 @@ class SparsePointCloud {
   };
   // Every stereo match of a recent keyframe, for the verification (step 6).
   struct KeyframeMatches {
+    int id = 0;  // keyframe id
     geometry::SE3 T_cam_world;
     std::vector<Eigen::Vector3d> p_world;
     std::vector<int> feature_class;
     std::vector<localization::Descriptor> descriptors;
     std::vector<int> track;  // the track the match became or re-observed, -1 if not selected
+    std::vector<char> in_sight_lines;  // already added to extra_sight_lines_
   };
   struct Extractors;
   bool Accepted(const Track& t) const;
@@ -238,6 +246,7 @@ class SparsePointCloud {
   std::vector<geometry::SE3> T_world_cams_;
   std::vector<std::vector<int>> keyframe_tracks_;  // tracks observed by each keyframe
   std::vector<KeyframeMatches> recent_matches_;    // the last verify_window_keyframes keyframes
+  std::vector<MapPoint> extra_sight_lines_;        // supported matches that became no point
   SparsePointsStats stats_;
   std::unique_ptr<Extractors> extractors_;
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <thread>
 
 #include <Eigen/Geometry>
 #include <unordered_map>
@@ -263,16 +264,35 @@ Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vecto
   if (options.carve_lines_of_sight) {
     std::unordered_map<int, Eigen::Vector3d> center_of;
     for (const KeyframeView& k : keyframes) center_of[k.id] = k.center_world;
-    std::vector<uint8_t> seen(static_cast<size_t>(grid.num_voxels()), 0);
-    const bool thick = options.carve_radius_voxels > 0;
     for (const MapPoint& p : points) {
       for (int id : p.keyframes) {
-        const auto it = center_of.find(id);
-        if (it == center_of.end()) {
+        if (center_of.count(id) == 0) {
           return Status::InvalidArgument("points: unknown keyframe id " + std::to_string(id));
         }
-        TraceRay(it->second, p.p_world, thick, options.thick_stop_m, grid, &seen);
       }
+    }
+    const bool thick = options.carve_radius_voxels > 0;
+    // Two workers, each tracing half of the points into its own mask; the masks are OR-ed, so the
+    // result does not depend on the split.
+    auto trace = [&](size_t begin, size_t end, std::vector<uint8_t>* mask) {
+      for (size_t i = begin; i < end; ++i) {
+        for (int id : points[i].keyframes) {
+          TraceRay(center_of.at(id), points[i].p_world, thick, options.thick_stop_m, grid, mask);
+        }
+      }
+    };
+    const size_t num_voxels = static_cast<size_t>(grid.num_voxels());
+    std::vector<uint8_t> seen(num_voxels, 0);
+    constexpr size_t kMinPointsPerWorker = 20000;
+    if (points.size() >= 2 * kMinPointsPerWorker) {
+      std::vector<uint8_t> seen_other(num_voxels, 0);
+      const size_t half = points.size() / 2;
+      std::thread worker(trace, half, points.size(), &seen_other);
+      trace(0, half, &seen);
+      worker.join();
+      for (size_t i = 0; i < num_voxels; ++i) seen[i] |= seen_other[i];
+    } else {
+      trace(0, points.size(), &seen);
     }
     if (thick) DilateThick(geometry.size, options.carve_radius_voxels, &seen);
     for (int64_t i = 0; i < grid.num_voxels(); ++i) {

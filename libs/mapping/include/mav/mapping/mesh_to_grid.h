@@ -56,6 +56,7 @@ GridGeometry GridGeometryAround(const std::vector<MapPoint>& points,
 // given to BuildMesh, or a superset (e.g. SparsePointCloud::SightPoints(): also the lines of sight
 // of the single-view points the verification left out of the mesh and of the verified stereo
 // matches that were not selected as points).
+// With 40 000 or more points the lines of sight are traced on two threads (same result).
 // INVALID_ARGUMENT for an invalid geometry/options or tetrahedra that index outside `points`.
 Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vector<MapPoint>& points,
                                   const std::vector<KeyframeView>& keyframes,

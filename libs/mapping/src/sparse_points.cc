@@ -72,6 +72,14 @@ bool FinitePose(const geometry::SE3& T) {
   return T.Translation().allFinite() && T.Rotation().coeffs().allFinite();
 }
 
+// Sum of one field over every keyframe's stats.
+template <typename Sum, typename Field>
+Sum SumOver(const std::vector<SparseKeyframeStats>& keyframes, Field SparseKeyframeStats::*field) {
+  Sum sum = 0;
+  for (const SparseKeyframeStats& k : keyframes) sum += k.*field;
+  return sum;
+}
+
 }  // namespace
 
 bool SparsePointsOptions::IsValid(std::string* why) const {
@@ -125,34 +133,22 @@ bool SparsePointsOptions::IsValid(std::string* why) const {
 }
 
 double SparsePointsStats::TotalMs() const {
-  double sum = 0;
-  for (const auto& k : keyframes) sum += k.total_ms;
-  return sum;
+  return SumOver<double>(keyframes, &SparseKeyframeStats::total_ms);
 }
 double SparsePointsStats::TotalExtractionMs() const {
-  double sum = 0;
-  for (const auto& k : keyframes) sum += k.extraction_ms;
-  return sum;
+  return SumOver<double>(keyframes, &SparseKeyframeStats::extraction_ms);
 }
 double SparsePointsStats::TotalMatchingMs() const {
-  double sum = 0;
-  for (const auto& k : keyframes) sum += k.matching_ms;
-  return sum;
+  return SumOver<double>(keyframes, &SparseKeyframeStats::matching_ms);
 }
 double SparsePointsStats::TotalMergingMs() const {
-  double sum = 0;
-  for (const auto& k : keyframes) sum += k.merging_ms;
-  return sum;
+  return SumOver<double>(keyframes, &SparseKeyframeStats::merging_ms);
 }
 int64_t SparsePointsStats::TotalSelected() const {
-  int64_t sum = 0;
-  for (const auto& k : keyframes) sum += k.selected;
-  return sum;
+  return SumOver<int64_t>(keyframes, &SparseKeyframeStats::selected);
 }
 int64_t SparsePointsStats::TotalReobserved() const {
-  int64_t sum = 0;
-  for (const auto& k : keyframes) sum += k.reobserved;
-  return sum;
+  return SumOver<int64_t>(keyframes, &SparseKeyframeStats::reobserved);
 }
 
 struct SparsePointCloud::Extractors {

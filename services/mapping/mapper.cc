@@ -697,11 +697,9 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(Engine* engine, const BuildRe
   };
 
   std::vector<mapping::MapPoint> points;
-  std::vector<mapping::MapPoint> sight_points;  // lines of sight for the free space
   std::vector<mapping::KeyframeView> views;
   if (sparse != nullptr) {
     points = sparse->Points();
-    sight_points = sparse->SightPoints();
     views = sparse->keyframes();
     if (request.min_visibility > 1) {
       std::erase_if(points, [&](const mapping::MapPoint& p) {
@@ -755,8 +753,9 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(Engine* engine, const BuildRe
     timing.surface_ms = m.seconds_extraction * 1e3;
     SetProgress("mesh to occupancy grid", 0.7);
     const int64_t rasterize_start = MonotonicNowNs();
+    // Free space from every line of sight, not only those of the meshed points.
     Result<mapping::VoxelGrid> grid = mapping::MeshToOccupancy(
-        *meshing, sight_points, views, geometry, pipeline.options().mesh_to_grid);
+        *meshing, sparse->SightPoints(), views, geometry, pipeline.options().mesh_to_grid);
     if (!grid.ok()) return Status(grid.status().code(), "sparse-mesh: " + grid.status().message());
     timing.rasterize_ms = MsSince(rasterize_start);
     map->grid = std::move(*grid);

@@ -21,7 +21,7 @@
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
 #include "mav/dataset/trajectory_io.h"
-#include "mav/eval/runtime_stats.h"
+#include "mav/common/stats.h"
 #include "mav/eval/trajectory_metrics.h"
 #include "mav/localization/odometry.h"
 #include "paper.h"
@@ -46,7 +46,7 @@ struct MethodMetrics {
   double ate_rmse_m = 0;
   double end_point_error_m = 0;
   double path_length_m = 0;
-  eval::RuntimeStats runtime;
+  RuntimeStats runtime;
 };
 
 // Preset name from <data>/ground_truth/scenario.yaml (written by mav-sim), empty if absent.
@@ -265,7 +265,7 @@ int RunLocalization(const std::vector<std::string>& args) {
     m.ate_rmse_m = *ate;
     m.end_point_error_m = *end;
     m.path_length_m = eval::PathLength(assoc->ground_truth);
-    m.runtime = eval::ComputeRuntimeStats(run.runtime_ms);
+    m.runtime = SummarizeRuntimes(run.runtime_ms);
     metrics.push_back(m);
 
     const std::string name = localization::MethodName(run.method);

@@ -16,4 +16,8 @@ int64_t WallNowNs() {
       .count();
 }
 
+double MsSince(int64_t start_ns) { return NsToSeconds(MonotonicNowNs() - start_ns) * 1e3; }
+
+double SecondsSince(int64_t start_ns) { return NsToSeconds(MonotonicNowNs() - start_ns); }
+
 }  // namespace mav

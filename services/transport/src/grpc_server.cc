@@ -221,6 +221,15 @@ grpc::Status ToGrpcStatus(const Status& status) {
     case StatusCode::kUnavailable:
       code = grpc::StatusCode::UNAVAILABLE;
       break;
+    case StatusCode::kResourceExhausted:
+      code = grpc::StatusCode::RESOURCE_EXHAUSTED;
+      break;
+    case StatusCode::kDeadlineExceeded:
+      code = grpc::StatusCode::DEADLINE_EXCEEDED;
+      break;
+    case StatusCode::kCancelled:
+      code = grpc::StatusCode::CANCELLED;
+      break;
   }
   return grpc::Status(code, status.message());
 }
@@ -240,9 +249,13 @@ Status FromGrpcStatus(const grpc::Status& status) {
     case grpc::StatusCode::DATA_LOSS:
       return Status::DataLoss(status.error_message());
     case grpc::StatusCode::UNAVAILABLE:
-    case grpc::StatusCode::DEADLINE_EXCEEDED:
-    case grpc::StatusCode::RESOURCE_EXHAUSTED:
       return Status::Unavailable(status.error_message());
+    case grpc::StatusCode::DEADLINE_EXCEEDED:
+      return Status::DeadlineExceeded(status.error_message());
+    case grpc::StatusCode::RESOURCE_EXHAUSTED:
+      return Status::ResourceExhausted(status.error_message());
+    case grpc::StatusCode::CANCELLED:
+      return Status::Cancelled(status.error_message());
     default:
       return Status::Internal(status.error_message());
   }

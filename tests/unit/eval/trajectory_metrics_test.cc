@@ -4,7 +4,6 @@
 
 #include <cmath>
 
-#include "mav/eval/runtime_stats.h"
 
 namespace mav::eval {
 namespace {
@@ -127,18 +126,6 @@ TEST(AssociateTest, InterpolatesGroundTruthAtEstimateTimes) {
   EXPECT_NEAR(a->ground_truth[1].Translation().x(), 1.0, 1e-12);
   gt[1].t_ns = 0;
   EXPECT_FALSE(AssociateByTime(est, gt).ok());
-}
-
-TEST(RuntimeStatsTest, MeanMedianP95) {
-  std::vector<double> samples;
-  for (int i = 1; i <= 100; ++i) samples.push_back(i);
-  const RuntimeStats s = ComputeRuntimeStats(samples);
-  EXPECT_EQ(s.count, 100);
-  EXPECT_DOUBLE_EQ(s.mean_ms, 50.5);
-  EXPECT_DOUBLE_EQ(s.median_ms, 50.5);
-  EXPECT_DOUBLE_EQ(s.p95_ms, 95.0);
-  EXPECT_DOUBLE_EQ(s.max_ms, 100.0);
-  EXPECT_EQ(ComputeRuntimeStats({}).count, 0);
 }
 
 }  // namespace

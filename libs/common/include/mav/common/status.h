@@ -23,8 +23,11 @@ enum class StatusCode {
   kOutOfRange,          // a time or index outside the valid span
   kDataLoss,            // a file exists but is corrupt or truncated
   kIoError,             // reading or writing failed at the OS level
-  kUnavailable,         // a resource is temporarily unavailable
+  kUnavailable,         // a resource or peer is temporarily unavailable (retry later)
   kInternal,            // an invariant failed that we could not prove at compile time
+  kResourceExhausted,   // a configured limit (queue, memory, samples) would be exceeded
+  kDeadlineExceeded,    // the caller's deadline passed before the work completed
+  kCancelled,           // the caller (or a shutdown) cancelled the work
 };
 
 const char* StatusCodeName(StatusCode code);
@@ -47,6 +50,13 @@ class [[nodiscard]] Status {
   static Status IoError(std::string m) { return {StatusCode::kIoError, std::move(m)}; }
   static Status Unavailable(std::string m) { return {StatusCode::kUnavailable, std::move(m)}; }
   static Status Internal(std::string m) { return {StatusCode::kInternal, std::move(m)}; }
+  static Status ResourceExhausted(std::string m) {
+    return {StatusCode::kResourceExhausted, std::move(m)};
+  }
+  static Status DeadlineExceeded(std::string m) {
+    return {StatusCode::kDeadlineExceeded, std::move(m)};
+  }
+  static Status Cancelled(std::string m) { return {StatusCode::kCancelled, std::move(m)}; }
 
   bool ok() const { return code_ == StatusCode::kOk; }
   StatusCode code() const { return code_; }

@@ -21,4 +21,10 @@ int64_t MonotonicNowNs();
 // Wall clock (UNIX epoch) for stamping live data.
 int64_t WallNowNs();
 
+// The one way to time a piece of work: take `const int64_t start_ns = MonotonicNowNs();`, then
+// read MsSince(start_ns) for a per-call time (fields named `_ms`) or SecondsSince(start_ns) for
+// a whole run (fields named `_s`).
+double MsSince(int64_t start_ns);
+double SecondsSince(int64_t start_ns);
+
 }  // namespace mav

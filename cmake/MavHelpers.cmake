@@ -28,6 +28,10 @@ function(mav_add_test name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
+  if(MAV_SANITIZE)
+    # ASan + UBSan run the tests 2-5x slower (cmake/MavSanitize.cmake).
+    math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 5")
+  endif()
   set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
 endfunction()
 

@@ -286,8 +286,8 @@ int RunLocalization(const std::vector<std::string>& args) {
     json.Set(name, "frames", static_cast<double>(run.T_world_body.size()));
     json.Set(name, "lost_frames", static_cast<double>(run.lost_frames));
 
-    if (Status s = dataset::WriteTumTrajectory(out_dir + "/" + name + ".tum", run.T_world_body);
-        !s.ok()) {
+    const std::string tum_path = out_dir + "/" + name;
+    if (Status s = dataset::WriteTumTrajectory(tum_path + ".tum", run.T_world_body); !s.ok()) {
       std::cerr << "mav-eval localization: " << s.message() << "\n";
       return 1;
     }

@@ -76,7 +76,7 @@ VoxelGrid ToVoxelGrid(const sim::OccupancyGrid& g) {
 bool KnownRegion(const VoxelGrid& truth, Eigen::Vector3i* lo, Eigen::Vector3i* hi) {
   *lo = truth.size();
   *hi = Eigen::Vector3i::Zero();
-  const Eigen::Vector3i n = truth.size();
+  const Eigen::Vector3i& n = truth.size();
   for (int k = 0; k < n.z(); ++k) {
     for (int j = 0; j < n.y(); ++j) {
       for (int i = 0; i < n.x(); ++i) {
@@ -139,7 +139,7 @@ Status WriteMappingFigure(const std::string& path, const std::string& title,
                           const mapping::MappingOutput& out, const VoxelGrid& truth) {
   const int w = 640, h = 520;
   cv::Mat canvas(h, 3 * w, CV_8UC3, cv::Scalar(255, 255, 255));
-  const Eigen::Vector3d lo = truth.origin();
+  const Eigen::Vector3d& lo = truth.origin();
   const Eigen::Vector3d hi = lo + truth.size().cast<double>() * truth.resolution();
   double z_cut = lo.z();
   for (const auto& T : out.keyframe_poses) z_cut = std::max(z_cut, T.Translation().z());
@@ -156,7 +156,7 @@ Status WriteMappingFigure(const std::string& path, const std::string& title,
     }
   }
   for (const auto& T : out.keyframe_poses) {
-    const Eigen::Vector3d c = T.Translation();
+    const Eigen::Vector3d& c = T.Translation();
     const Eigen::Vector3d axis = T * Eigen::Vector3d(0, 0, 0.25);
     auto pc = view.Project(c), pa = view.Project(axis);
     if (pc && pa) cv::line(panels[0], *pc, *pa, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);

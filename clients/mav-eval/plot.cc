@@ -58,8 +58,8 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
   const int size = 900, margin = 60;
   const double scale = (size - 2 * margin) / span;
   const auto to_px = [&](const Eigen::Vector2d& p) {
-    return cv::Point(static_cast<int>(std::lround(size / 2 + (p.x() - centre.x()) * scale)),
-                     static_cast<int>(std::lround(size / 2 - (p.y() - centre.y()) * scale)));
+    return cv::Point(static_cast<int>(std::lround(0.5 * size + (p.x() - centre.x()) * scale)),
+                     static_cast<int>(std::lround(0.5 * size - (p.y() - centre.y()) * scale)));
   };
 
   cv::Mat canvas(size, size, CV_8UC3, cv::Scalar(255, 255, 255));

@@ -115,6 +115,7 @@ Status RenderFrames(const sim::Scenario& scenario, dataset::EurocWriter* writer,
   std::mutex error_mutex;
   Status first_error;
   std::vector<std::thread> pool;
+  pool.reserve(threads);
   for (int t = 0; t < threads; ++t) {
     pool.emplace_back([&] {
       cv::Mat left, right;

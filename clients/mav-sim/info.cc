@@ -123,7 +123,9 @@ int RunInfo(const std::vector<std::string>& args) {
     }
     const Eigen::Vector3i& size = grid->size();
     const double total = static_cast<double>(grid->num_voxels());
-    const auto pct = [&](sim::VoxelState s) { return 100.0 * grid->Count(s) / total; };
+    const auto pct = [&](sim::VoxelState s) {
+      return 100.0 * static_cast<double>(grid->Count(s)) / total;
+    };
     std::printf(
         "occupancy       %dx%dx%d voxels at %.3g m (%.1f x %.1f x %.1f m from (%.2f, %.2f, "
         "%.2f)): %.2f %% occupied, %.2f %% free, %.2f %% unknown\n",

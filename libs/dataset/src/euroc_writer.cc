@@ -144,7 +144,7 @@ Status EurocWriter::Close() {
   std::string cam_csv = internal::JoinHeader(internal::CameraColumns(), ",");
   for (int64_t t : times) {
     const std::string s = std::to_string(t);
-    cam_csv += s + "," + s + ".png\n";
+    cam_csv.append(s).append(",").append(s).append(".png\n");
   }
   for (const char* cam : {"/cam0", "/cam1"}) {
     MAV_RETURN_IF_ERROR(WriteStringToFileAtomic(mav0_ + cam + "/data.csv", cam_csv));

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 
 #include <Eigen/SVD>
 
@@ -76,7 +77,8 @@ Result<RelativeError> ComputeRelativeError(const std::vector<geometry::SE3>& est
     entry.length_m = length;
     double sum = 0;
     for (size_t i = 0; i < ground_truth.size(); i += options.step) {
-      const auto end = std::lower_bound(distance.begin() + i, distance.end(), distance[i] + length);
+      const auto end = std::lower_bound(distance.begin() + static_cast<std::ptrdiff_t>(i),
+                                        distance.end(), distance[i] + length);
       if (end == distance.end()) break;  // later starts cannot reach this length either
       const size_t j = static_cast<size_t>(end - distance.begin());
       const geometry::SE3 gt_motion = ground_truth[i].Inverse() * ground_truth[j];

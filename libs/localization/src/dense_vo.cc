@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <sstream>
 #include <utility>
@@ -555,7 +556,7 @@ struct DenseVo::Impl {
       for (int i = 0; i < n; ++i) {
         if (valid[i] > 0.f) weights.push_back(std::abs(residuals[i]));
       }
-      auto mid = weights.begin() + weights.size() / 2;
+      auto mid = weights.begin() + static_cast<std::ptrdiff_t>(weights.size() / 2);
       std::nth_element(weights.begin(), mid, weights.end());
       return std::max(kMinSigma, 1.4826f * *mid);
     }

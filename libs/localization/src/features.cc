@@ -252,8 +252,8 @@ void ComputeFilterResponses(const ImageView& image, std::vector<int16_t>* blob,
     for (int x = 0; x < w - 1; ++x) r2[x] = static_cast<int16_t>(in[x] + in[x + 1]);
     for (int x = 2; x < w - 2; ++x) {
       const int16_t a = in[x - 2], b = in[x - 1], c = in[x], d = in[x + 1], e = in[x + 2];
-      r3[x] = b + c + d;
-      r5[x] = a + b + c + d + e;
+      r3[x] = static_cast<int16_t>(b + c + d);
+      r5[x] = static_cast<int16_t>(a + b + c + d + e);
     }
   }
   // blob = 8 c + (inner ring) - (outer ring) = -S5 + 2 S3 + 7 c.
@@ -311,7 +311,7 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
     c.descriptors.clear();
     c.cell_start.assign(static_cast<size_t>(out->cols_) * out->rows_ + 1, 0);
   }
-  constexpr int m = FeatureSet::kDescriptorMargin;
+  const int m = FeatureSet::kDescriptorMargin;
   if (w < 2 * m + 1 || h < 2 * m + 1 || image.data == nullptr) {
     out->sobel_u_.assign(static_cast<size_t>(std::max(w, 0)) * std::max(h, 0), 128);
     out->sobel_v_ = out->sobel_u_;
@@ -392,7 +392,7 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
     order_.assign(r.size(), 0);
     std::vector<int32_t> fill(start.begin(), start.end() - 1);
     for (size_t i = 0; i < r.size(); ++i)
-      order_[fill[(r[i].v / cell) * cols + r[i].u / cell]++] = i;
+      order_[fill[(r[i].v / cell) * cols + r[i].u / cell]++] = static_cast<int32_t>(i);
     c.u.resize(r.size());
     c.v.resize(r.size());
     c.strength.resize(r.size());

@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 
 #include "mav/common/file.h"
+#include "mav/common/text.h"
 
 namespace mav::mapping {
 
@@ -182,7 +183,7 @@ Result<TriangleMesh> DecodePly(const std::string& bytes, const std::string& name
       if (format == "ascii") {
         ascii = true;
       } else if (format != "binary_little_endian") {
-        return bad(where + "unsupported format '" + format + "'");
+        return bad(where + "unsupported format " + QuoteForError(format));
       }
       have_format = true;
     } else if (word == "element") {
@@ -205,14 +206,15 @@ Result<TriangleMesh> DecodePly(const std::string& bytes, const std::string& name
         }
       } else {
         in >> p.name;
-        if (!ParsePropertyType(type, &p.type)) return bad(where + "unknown type '" + type + "'");
+        if (!ParsePropertyType(type, &p.type))
+          return bad(where + "unknown type " + QuoteForError(type));
       }
       elements.back().properties.push_back(p);
     } else if (word == "end_header") {
       header_done = true;
       break;
     } else if (word != "comment" && word != "obj_info" && !word.empty()) {
-      return bad(where + "unexpected keyword '" + word + "'");
+      return bad(where + "unexpected keyword " + QuoteForError(word));
     }
   }
   if (!header_done) return bad("no end_header");

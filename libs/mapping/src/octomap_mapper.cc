@@ -313,8 +313,8 @@ Status OctomapMapper::InsertKeyframe(const cv::Mat& left, const cv::Mat& right,
   const double max_disparity =
       o.min_range_m > 0 ? fx_b / o.min_range_m : std::numeric_limits<double>::infinity();
   octomap::Pointcloud cloud;
-  cloud.reserve(
-      static_cast<size_t>((left.rows / o.pixel_stride + 1) * (left.cols / o.pixel_stride + 1)));
+  cloud.reserve(static_cast<size_t>(left.rows / o.pixel_stride + 1) *
+                static_cast<size_t>(left.cols / o.pixel_stride + 1));
   for (int v = 0; v < s.disparity.rows; v += o.pixel_stride) {
     const int16_t* row = s.disparity.ptr<int16_t>(v);
     for (int u = 0; u < s.disparity.cols; u += o.pixel_stride) {

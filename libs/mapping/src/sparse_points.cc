@@ -359,7 +359,7 @@ Result<int> SparsePointCloud::AddObservationsTimed(
   const int id = static_cast<int>(keyframes_.size());
   const geometry::SE3 T_cam_world = T_world_cam.Inverse();
   const Eigen::Matrix3d R_cw = T_cam_world.RotationMatrix();
-  const Eigen::Vector3d t_cw = T_cam_world.Translation();
+  const Eigen::Vector3d& t_cw = T_cam_world.Translation();
   const int n = static_cast<int>(observations.size());
 
   // Points of the camera frame.
@@ -395,7 +395,7 @@ Result<int> SparsePointCloud::AddObservationsTimed(
     }
   };
   const Eigen::Matrix3d R_wc = T_world_cam.RotationMatrix();
-  const Eigen::Vector3d t_wc = T_world_cam.Translation();
+  const Eigen::Vector3d& t_wc = T_world_cam.Translation();
   std::vector<Eigen::Vector3d> p_world(n);
   for (int i = 0; i < n; ++i) p_world[i] = R_wc * p_cam[i] + t_wc;
 

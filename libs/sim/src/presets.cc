@@ -3,6 +3,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "mav/common/text.h"
 #include "random.h"
 
 namespace mav::sim {
@@ -71,7 +72,7 @@ std::shared_ptr<World> BuildRoomWorld(const RoomStyle& style) {
   const int box_noise = w.AddMaterial(Mat(TexturePattern::kNoise, 0.4f, 0.25f, 0.003f));
 
   // Shell: interior [-4, 4] x [-4, 4] x [0, 3], slabs 0.2 m thick.
-  constexpr double t = 0.2;
+  const double t = 0.2;
   w.AddAlignedBox(Vector3d(-4 - t, -4 - t, -t), Vector3d(4 + t, 4 + t, 0), floor);
   w.AddAlignedBox(Vector3d(-4 - t, -4 - t, 3), Vector3d(4 + t, 4 + t, 3 + t), ceiling);
   w.AddAlignedBox(Vector3d(-4 - t, -4 - t, 0), Vector3d(-4, 4 + t, 3), wall_bricks);
@@ -224,7 +225,7 @@ Result<Preset> MakePreset(const std::string& name) {
     p.effects.max_blur_samples = 3;
   } else {
     std::ostringstream msg;
-    msg << "preset: unknown preset '" << name << "' (known: ";
+    msg << "preset: unknown preset " << QuoteForError(name) << " (known: ";
     for (size_t i = 0; i < PresetNames().size(); ++i) msg << (i ? ", " : "") << PresetNames()[i];
     msg << ")";
     return Status::InvalidArgument(msg.str());

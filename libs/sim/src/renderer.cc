@@ -667,7 +667,7 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
   const auto& materials = world->materials();
   const Lighting& lighting = world->lighting();
   const Eigen::Matrix3d R_wc = T_world_cam.RotationMatrix();
-  const Eigen::Vector3d o_w = T_world_cam.Translation();
+  const Eigen::Vector3d& o_w = T_world_cam.Translation();
 
   std::vector<PrimFrame> frames(prims.size());
   for (size_t i = 0; i < prims.size(); ++i) {

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include "mav/common/check.h"
+#include "mav/common/text.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/presets.h"
 #include "mav/sim/renderer.h"
@@ -46,7 +47,7 @@ bool ScenarioOptions::IsValid(std::string* why) const {
   std::ostringstream msg;
   const auto& names = PresetNames();
   if (std::find(names.begin(), names.end(), preset) == names.end()) {
-    msg << "preset: unknown preset '" << preset << "' (known: ";
+    msg << "preset: unknown preset " << QuoteForError(preset) << " (known: ";
     for (size_t i = 0; i < names.size(); ++i) msg << (i ? ", " : "") << names[i];
     msg << ")";
   } else if (frames < 0) {
@@ -98,7 +99,8 @@ Result<Scenario> Scenario::Create(const ScenarioOptions& options) {
   topt.look_at = preset.look_at;
   Result<Trajectory> trajectory = Trajectory::Create(topt);
   if (!trajectory.ok()) {
-    return trajectory.status().WithContext("preset '" + options.preset + "' trajectory");
+    return trajectory.status().WithContext("preset " + QuoteForError(options.preset) +
+                                           " trajectory");
   }
   impl->trajectory = std::move(trajectory).value();
   impl->calibration = options.rectified ? RectifiedRig() : camera::EurocStereoCalibration();
@@ -170,6 +172,7 @@ void Scenario::RenderStereo(int64_t frame, cv::Mat* left, cv::Mat* right) const 
   }
   for (int c = 0; c < 2; ++c) {
     std::vector<geometry::SE3> poses;
+    poses.reserve(T_world_body.size());
     for (const geometry::SE3& T : T_world_body) poses.push_back(T * *T_body_cam[c]);
     s.renderers[c]->RenderIntegrated(poses, &radiance);
     form(c, radiance);

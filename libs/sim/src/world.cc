@@ -269,7 +269,8 @@ int World::AddRectangle(const Eigen::Vector3d& center, const Eigen::Matrix3d& R_
 
 void World::AddRoomShell(const Eigen::AlignedBox3d& in, double t, int floor_material,
                          int wall_material, int ceiling_material) {
-  const Eigen::Vector3d lo = in.min(), hi = in.max();
+  const Eigen::Vector3d& lo = in.min();
+  const Eigen::Vector3d& hi = in.max();
   const Eigen::Vector3d tt(t, t, 0);
   AddAlignedBox(Eigen::Vector3d(lo.x() - t, lo.y() - t, lo.z() - t),
                 Eigen::Vector3d(hi.x() + t, hi.y() + t, lo.z()), floor_material);

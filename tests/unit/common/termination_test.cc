@@ -44,7 +44,7 @@ TEST(TerminationTest, HugeBudgetMeansNoDeadline) {
 TEST(TerminationTest, CancelFlagIsSharedByCopies) {
   CancelFlag flag;
   const Termination t = Termination::Never().WithCancel(flag);
-  const Termination copy = t;
+  const Termination copy = t;  // NOLINT(performance-unnecessary-copy-initialization): the test
   EXPECT_FALSE(copy.ShouldStop());
   flag.Cancel();
   EXPECT_TRUE(t.cancelled());

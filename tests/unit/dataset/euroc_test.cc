@@ -56,8 +56,7 @@ bool SameImage(const cv::Mat& a, const cv::Mat& b) {
 Eigen::Quaterniond FixedPointQuaternion(std::mt19937* rng) {
   std::normal_distribution<double> n;
   while (true) {
-    const Eigen::Quaterniond q =
-        Eigen::Quaterniond(n(*rng), n(*rng), n(*rng), n(*rng)).normalized();
+    Eigen::Quaterniond q = Eigen::Quaterniond(n(*rng), n(*rng), n(*rng), n(*rng)).normalized();
     if (q.normalized().coeffs() == q.coeffs()) return q;
   }
 }
@@ -128,6 +127,7 @@ Written WriteDataSet(const std::string& root, bool fixed_point_quaternions, uint
     w.right.push_back(MakeImage(752, 480, seed * 100 + 2 * i + 1));
   }
   std::vector<std::thread> threads;
+  threads.reserve(2);
   for (int t = 0; t < 2; ++t) {
     threads.emplace_back([&, t] {
       for (int i = kFrames - 1 - t; i >= 0; i -= 2) {
@@ -346,6 +346,7 @@ TEST_F(EurocFixture, ParallelReadsAgree) {
   ASSERT_TRUE(reader.ok());
   std::vector<cv::Mat> images(8);
   std::vector<std::thread> threads;
+  threads.reserve(8);
   for (int t = 0; t < 8; ++t) {
     threads.emplace_back([&, t] {
       cv::Mat right;

@@ -149,6 +149,15 @@ TEST(MavSimCli, BadFlagsFailNamingTheFlag) {
     EXPECT_NE(r.output.find(c.expected), std::string::npos)
         << "mav-sim " << c.args << " -> " << r.output;
   }
+  // Defect 4 of issue 8: a long value is quoted shortly, never echoed whole.
+  const RunResult long_preset =
+      RunMavSim("generate --preset " + std::string(10000, 'p') + " --frames 2" + out);
+  EXPECT_NE(long_preset.exit_code, 0);
+  EXPECT_NE(long_preset.output.find("unknown preset 'ppp"), std::string::npos)
+      << long_preset.output;
+  EXPECT_NE(long_preset.output.find("...' (10000 bytes)"), std::string::npos)
+      << long_preset.output.substr(0, 500);
+  EXPECT_LT(long_preset.output.size(), 2000u) << long_preset.output.substr(0, 500);
   EXPECT_FALSE(fs::exists(dir.path() + "/x/mav0")) << "nothing is written for bad flags";
   EXPECT_EQ(RunMavSim("--help").exit_code, 0);
   EXPECT_EQ(RunMavSim("generate --help").exit_code, 0);

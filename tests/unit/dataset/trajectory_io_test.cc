@@ -234,6 +234,7 @@ TEST(Kitti, MatricesRoundTripExactlyAndRewriteIsByteIdentical) {
   const std::string path = dir.path() + "/poses.txt";
   const std::vector<StampedPose> stamped = RandomPoses(300, 3);
   std::vector<geometry::SE3> poses;
+  poses.reserve(stamped.size());
   for (const StampedPose& p : stamped) poses.push_back(p.T_world_body);
   ASSERT_TRUE(WriteKittiTrajectory(path, poses).ok());
 

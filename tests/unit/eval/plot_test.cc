@@ -84,7 +84,7 @@ TEST_F(PlotTest, NormalPlotIsUnchangedInShape) {
   int coloured = 0;
   for (int r = 0; r < image.rows; ++r) {
     for (int c = 0; c < image.cols; ++c) {
-      const cv::Vec3b px = image.at<cv::Vec3b>(r, c);
+      const cv::Vec3b& px = image.at<cv::Vec3b>(r, c);
       coloured += px[0] != px[1] || px[1] != px[2];
     }
   }

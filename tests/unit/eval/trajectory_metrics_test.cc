@@ -4,7 +4,6 @@
 
 #include <cmath>
 
-
 namespace mav::eval {
 namespace {
 
@@ -13,6 +12,7 @@ using geometry::SE3;
 // A straight line along x at 1 m per frame.
 std::vector<SE3> Line(int n, double step_m = 1.0) {
   std::vector<SE3> poses;
+  poses.reserve(n);
   for (int i = 0; i < n; ++i) {
     poses.emplace_back(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i * step_m, 0, 0));
   }
@@ -46,6 +46,7 @@ TEST(RelativeErrorTest, SegmentsAreAlignedAtTheirFirstFrame) {
   std::vector<SE3> est;
   const SE3 offset(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ())),
                    Eigen::Vector3d(5, -2, 1));
+  est.reserve(gt.size());
   for (const SE3& p : gt) est.push_back(offset * p);
   const auto r = ComputeRelativeError(est, gt, RelativeErrorOptions());
   ASSERT_TRUE(r.ok());
@@ -89,6 +90,7 @@ TEST(RelativeErrorTest, BadInputNamesTheField) {
 
 TEST(AteTest, RigidlyMovedCopyHasZeroErrorAndNoiseShows) {
   std::vector<SE3> gt;
+  gt.reserve(50);
   for (int i = 0; i < 50; ++i) {
     gt.emplace_back(Eigen::Quaterniond::Identity(),
                     Eigen::Vector3d(std::cos(0.2 * i), std::sin(0.2 * i), 0.05 * i));
@@ -97,6 +99,7 @@ TEST(AteTest, RigidlyMovedCopyHasZeroErrorAndNoiseShows) {
       Eigen::Quaterniond(Eigen::AngleAxisd(1.0, Eigen::Vector3d(1, 2, 3).normalized())),
       Eigen::Vector3d(3, 4, 5));
   std::vector<SE3> est;
+  est.reserve(gt.size());
   for (const SE3& p : gt) est.push_back(offset * p);
   EXPECT_NEAR(*AbsoluteTrajectoryRmse(est, gt), 0.0, 1e-9);
   // Alternate +-0.1 m along z: alignment cannot remove it (mean zero), RMSE is 0.1.

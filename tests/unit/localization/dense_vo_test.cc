@@ -68,7 +68,7 @@ class BoxRoom {
                  double bias = 0.0) const {
     cv::Mat image(rig.height, rig.width, CV_8UC1);
     const Eigen::Matrix3d R = T_world_cam.RotationMatrix();
-    const Eigen::Vector3d o = T_world_cam.Translation();
+    const Eigen::Vector3d& o = T_world_cam.Translation();
     for (int v = 0; v < rig.height; ++v) {
       uint8_t* row = image.ptr<uint8_t>(v);
       for (int u = 0; u < rig.width; ++u) {

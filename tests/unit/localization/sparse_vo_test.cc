@@ -61,6 +61,7 @@ std::vector<FrameError> RunSequence(const std::vector<SE3>& T_world_cam,
 
 std::vector<SE3> Trajectory(int frames, const std::function<SE3(int)>& pose) {
   std::vector<SE3> t;
+  t.reserve(frames);
   for (int k = 0; k < frames; ++k) t.push_back(pose(k));
   return t;
 }

@@ -32,8 +32,8 @@ inline camera::RectifiedStereo EurocLikeRig() {
 class SyntheticRoom {
  public:
   // Box [lo, hi] in world coordinates (metres); the camera must stay inside.
-  explicit SyntheticRoom(uint64_t seed = 7, Eigen::Vector3d lo = {-3.0, -1.5, -2.0},
-                         Eigen::Vector3d hi = {3.0, 1.5, 5.0})
+  explicit SyntheticRoom(uint64_t seed = 7, const Eigen::Vector3d& lo = {-3.0, -1.5, -2.0},
+                         const Eigen::Vector3d& hi = {3.0, 1.5, 5.0})
       : lo_(lo), hi_(hi) {
     std::mt19937_64 rng(seed);
     std::uniform_real_distribution<float> uni(-1.f, 1.f);
@@ -104,7 +104,7 @@ class SyntheticRoom {
               std::vector<uint8_t>* left, std::vector<uint8_t>* right, double noise_sigma = 0,
               uint64_t noise_seed = 1) const {
     const Eigen::Matrix3d R = T_world_cam.RotationMatrix();
-    const Eigen::Vector3d o_left = T_world_cam.Translation();
+    const Eigen::Vector3d& o_left = T_world_cam.Translation();
     const Eigen::Vector3d o_right = T_world_cam * Eigen::Vector3d(rig.baseline, 0, 0);
     std::mt19937_64 rng(noise_seed);
     std::normal_distribution<float> noise(0.f, static_cast<float>(noise_sigma));

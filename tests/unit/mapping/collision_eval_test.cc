@@ -132,7 +132,7 @@ TEST(BoxQueryTest, MatchesBruteForce) {
   uint32_t state = 12345;
   for (int64_t i = 0; i < grid.num_voxels(); ++i) {
     state = state * 1664525u + 1013904223u;
-    const int r = (state >> 24) % 5;
+    const int r = static_cast<int>((state >> 24) % 5);
     grid[i] = r == 0 ? VoxelState::kOccupied : r == 1 ? VoxelState::kUnknown : VoxelState::kFree;
   }
   const BoxQuery q(grid);

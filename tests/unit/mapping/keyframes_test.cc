@@ -15,6 +15,7 @@ constexpr int64_t kFramePeriodNs = 50'000'000;  // 20 Hz
 
 std::vector<StampedCameraPose> Line(int frames, double spacing_m) {
   std::vector<StampedCameraPose> poses;
+  poses.reserve(frames);
   for (int k = 0; k < frames; ++k) {
     poses.push_back({k * kFramePeriodNs, SE3(Eigen::Quaterniond::Identity(),
                                              Eigen::Vector3d(k * spacing_m, 1.0, 2.0))});
@@ -24,6 +25,7 @@ std::vector<StampedCameraPose> Line(int frames, double spacing_m) {
 
 std::vector<StampedCameraPose> Yaw(int frames, double step_rad, const Eigen::Vector3d& axis) {
   std::vector<StampedCameraPose> poses;
+  poses.reserve(frames);
   for (int k = 0; k < frames; ++k) {
     poses.push_back({k * kFramePeriodNs,
                      SE3(Eigen::Quaterniond(Eigen::AngleAxisd(k * step_rad, axis.normalized())),

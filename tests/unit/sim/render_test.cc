@@ -321,6 +321,7 @@ TEST(RenderTest, ReprojectionBlurApproximatesSubFrameIntegration) {
   renderer.RenderRadiance(pose(0), &sharp, &range);
   renderer.BlurByReprojection(sharp, range, pose(0), pose(-0.5), pose(0.5), 16, &blurred);
   std::vector<geometry::SE3> poses;
+  poses.reserve(24);
   for (int k = 0; k < 24; ++k) poses.push_back(pose((k + 0.5) / 24 - 0.5));
   renderer.RenderIntegrated(poses, &exact);
   double err_blur = 0, err_sharp = 0;
@@ -332,8 +333,10 @@ TEST(RenderTest, ReprojectionBlurApproximatesSubFrameIntegration) {
   }
   err_blur /= exact.size();
   err_sharp /= exact.size();
-  std::nth_element(abs_err.begin(), abs_err.begin() + abs_err.size() * 95 / 100, abs_err.end());
-  const float p95 = abs_err[abs_err.size() * 95 / 100];
+  const size_t p95_index = abs_err.size() * 95 / 100;
+  std::nth_element(abs_err.begin(), abs_err.begin() + static_cast<std::ptrdiff_t>(p95_index),
+                   abs_err.end());
+  const float p95 = abs_err[p95_index];
   std::printf("mean |blur - exact| %.4f, |sharp - exact| %.4f, p95 %.4f\n", err_blur, err_sharp,
               p95);
   EXPECT_LT(err_blur, 0.25 * err_sharp);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -279,7 +280,10 @@ TEST(TrajectoryTest, InvalidOptionsNameTheField) {
       {"duration_s", [](TrajectoryOptions* o) { o->duration_s = 0; }},
       {"duration_s", [](TrajectoryOptions* o) { o->duration_s = std::nan(""); }},
       {"bounds", [](TrajectoryOptions* o) { o->bounds.max().z() = o->bounds.min().z(); }},
-      {"bounds", [](TrajectoryOptions* o) { o->bounds.min().x() = -INFINITY; }},
+      {"bounds",
+       [](TrajectoryOptions* o) {
+         o->bounds.min().x() = -std::numeric_limits<double>::infinity();
+       }},
       {"min_clearance", [](TrajectoryOptions* o) { o->min_clearance = -0.1; }},
       {"look_at", [](TrajectoryOptions* o) { o->look_at.y() = std::nan(""); }},
       {"profile", [](TrajectoryOptions* o) { o->profile = static_cast<MotionProfile>(17); }},

@@ -138,7 +138,7 @@ class UniformQuinticBSpline {
   }
 
   static Eigen::Matrix<double, kOrder, kOrder> ComputeBlendingMatrix() {
-    constexpr int k = kOrder;
+    const int k = kOrder;
     double factorial = 1;
     for (int i = 2; i < k; ++i) factorial *= i;
     Eigen::Matrix<double, kOrder, kOrder> m;

@@ -60,7 +60,7 @@ BENCHMARK(BM_MeshToOccupancy)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 // The whole pipeline as mav-eval runs it, with the collision MCC as a counter.
 void BM_MeshGridEvaluate(benchmark::State& state) {
   const Fixture f(300);
-  const VoxelGrid truth = f.scene.TruthGrid(f.geometry);
+  const OccupancyGrid truth = f.scene.TruthGrid(f.geometry);
   double mcc = 0.0;
   for (auto _ : state) {
     const auto meshing = BuildMesh(f.points, f.keyframes);
@@ -74,7 +74,7 @@ BENCHMARK(BM_MeshGridEvaluate)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_EvaluateCollisions(benchmark::State& state) {
   const Fixture f(1);
-  const VoxelGrid truth = f.scene.TruthGrid(f.geometry);
+  const OccupancyGrid truth = f.scene.TruthGrid(f.geometry);
   for (auto _ : state) {
     auto eval = EvaluateCollisions(truth, truth);
     benchmark::DoNotOptimize(eval);

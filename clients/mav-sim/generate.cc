@@ -23,6 +23,7 @@
 #include "mav/common/progress.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/scenario.h"
 #include "mav/sim/world.h"
@@ -247,9 +248,9 @@ int RunGenerate(const std::vector<std::string>& args) {
   if (Status s = (*writer)->Close(); !s.ok()) return Fail(s);
 
   const int64_t occupancy_start_ns = MonotonicNowNs();
-  const sim::OccupancyGrid grid = scenario->ComputeOccupancy(resolution);
-  if (Status s = grid.WriteOctomap(gt_dir + "/occupancy.bt"); !s.ok()) return Fail(s);
-  if (Status s = grid.Write(gt_dir + "/occupancy.mavocc"); !s.ok()) return Fail(s);
+  const dataset::OccupancyGrid grid = scenario->ComputeOccupancy(resolution);
+  if (Status s = dataset::WriteOctomapBt(grid, gt_dir + "/occupancy.bt"); !s.ok()) return Fail(s);
+  if (Status s = dataset::WriteMavocc(grid, gt_dir + "/occupancy.mavocc"); !s.ok()) return Fail(s);
   const int64_t occupancy_ns = MonotonicNowNs() - occupancy_start_ns;
   if (Status s = WriteStringToFileAtomic(gt_dir + "/scenario.yaml",
                                          ScenarioYaml(flags, *scenario, resolution));

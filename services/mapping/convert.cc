@@ -33,7 +33,7 @@ Status DoubleOption(double value, double lo, bool lo_open, double hi, const std:
   return Status::Ok();
 }
 
-Eigen::AlignedBox3d BoundsOf(const mapping::GridGeometry& g) {
+Eigen::AlignedBox3d BoundsOf(const dataset::GridGeometry& g) {
   return Eigen::AlignedBox3d(g.origin, g.origin + g.size.cast<double>() * g.resolution);
 }
 

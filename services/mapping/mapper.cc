@@ -37,8 +37,8 @@ RuntimeSummary Summarise(std::vector<double> values) {
 
 // The grid covering `box`, its origin snapped down to a multiple of the resolution so that voxel
 // boundaries coincide with OctoMap's.
-mapping::GridGeometry GeometryOfBox(const Eigen::AlignedBox3d& box, double resolution) {
-  mapping::GridGeometry g;
+dataset::GridGeometry GeometryOfBox(const Eigen::AlignedBox3d& box, double resolution) {
+  dataset::GridGeometry g;
   g.resolution = resolution;
   g.origin = (box.min() / resolution).array().floor().matrix() * resolution;
   const Eigen::Vector3d extent = (box.max() - g.origin) / resolution;
@@ -707,7 +707,7 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(Engine* engine, const BuildRe
       });
     }
   }
-  mapping::GridGeometry geometry;
+  dataset::GridGeometry geometry;
   if (request.bounds.has_value()) {
     geometry = GeometryOfBox(*request.bounds, request.resolution_m);
   } else {
@@ -754,7 +754,7 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(Engine* engine, const BuildRe
     SetProgress("mesh to occupancy grid", 0.7);
     const int64_t rasterize_start = MonotonicNowNs();
     // Free space from every line of sight, not only those of the meshed points.
-    Result<mapping::VoxelGrid> grid = mapping::MeshToOccupancy(
+    Result<dataset::OccupancyGrid> grid = mapping::MeshToOccupancy(
         *meshing, sparse->SightPoints(), views, geometry, pipeline.options().mesh_to_grid);
     if (!grid.ok()) return Status(grid.status().code(), "sparse-mesh: " + grid.status().message());
     timing.rasterize_ms = MsSince(rasterize_start);
@@ -773,7 +773,7 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(Engine* engine, const BuildRe
     stats.points = static_cast<uint64_t>(o.TotalPoints());
     SetProgress("octree to occupancy grid", 0.2);
     const int64_t rasterize_start = MonotonicNowNs();
-    Result<mapping::VoxelGrid> grid = octomap->ToGrid(geometry);
+    Result<dataset::OccupancyGrid> grid = octomap->ToGrid(geometry);
     if (!grid.ok()) return Status(grid.status().code(), "octomap: " + grid.status().message());
     timing.rasterize_ms = MsSince(rasterize_start);
     map->grid = std::move(*grid);
@@ -782,17 +782,17 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(Engine* engine, const BuildRe
 
   SetProgress("collision index", 0.9);
   if (request.unknown != UnknownHandling::kKeepUnknown) {
-    const mapping::VoxelState to = request.unknown == UnknownHandling::kAsOccupied
-                                       ? mapping::VoxelState::kOccupied
-                                       : mapping::VoxelState::kFree;
+    const dataset::VoxelState to = request.unknown == UnknownHandling::kAsOccupied
+                                       ? dataset::VoxelState::kOccupied
+                                       : dataset::VoxelState::kFree;
     for (int64_t i = 0; i < map->grid.num_voxels(); ++i) {
-      if (map->grid[i] == mapping::VoxelState::kUnknown) map->grid[i] = to;
+      if (map->grid[i] == dataset::VoxelState::kUnknown) map->grid[i] = to;
     }
   }
   stats.geometry = map->grid.geometry();
-  stats.occupied_voxels = map->grid.Count(mapping::VoxelState::kOccupied);
-  stats.free_voxels = map->grid.Count(mapping::VoxelState::kFree);
-  stats.unknown_voxels = map->grid.Count(mapping::VoxelState::kUnknown);
+  stats.occupied_voxels = map->grid.Count(dataset::VoxelState::kOccupied);
+  stats.free_voxels = map->grid.Count(dataset::VoxelState::kFree);
+  stats.unknown_voxels = map->grid.Count(dataset::VoxelState::kUnknown);
   map->query = std::make_unique<mapping::BoxQuery>(map->grid);
   MAV_RETURN_IF_ERROR(deadline());
   timing.build_ms = MsSince(start);

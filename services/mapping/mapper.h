@@ -51,13 +51,13 @@
 
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
+#include "mav/dataset/occupancy_grid.h"
 #include "mav/geometry/se3.h"
 #include "mav/mapping/collision_eval.h"
 #include "mav/mapping/delaunay_graph_cut.h"
 #include "mav/mapping/keyframes.h"
 #include "mav/mapping/mesh.h"
 #include "mav/mapping/pipeline.h"
-#include "mav/mapping/voxel_grid.h"
 
 namespace mav::mapping_service {
 
@@ -142,7 +142,7 @@ struct MapStats {
   uint64_t tetrahedra = 0;
   uint64_t mesh_vertices = 0;
   uint64_t mesh_faces = 0;
-  mapping::GridGeometry geometry;
+  dataset::GridGeometry geometry;
   int64_t occupied_voxels = 0;
   int64_t free_voxels = 0;
   int64_t unknown_voxels = 0;
@@ -152,7 +152,7 @@ struct MapStats {
 // The last build of a method: immutable once published, shared with readers.
 struct BuiltMap {
   MapStats stats;
-  mapping::VoxelGrid grid;
+  dataset::OccupancyGrid grid;
   std::unique_ptr<mapping::BoxQuery> query;  // over `grid`
   mapping::TriangleMesh mesh;                // SPARSE_MESH only
 };

@@ -16,8 +16,8 @@
 #include "mav/common/log.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/mapping/mesh.h"
-#include "mav/sim/occupancy.h"
 #include "mav/transport/grpc_server.h"
 
 namespace mav::mapping_service {
@@ -82,26 +82,10 @@ class TempFile {
   std::string path_;
 };
 
-Result<std::string> EncodeOccupancy(const mapping::VoxelGrid& grid, v1::OccupancyFormat format) {
-  const bool octomap = format == v1::OCCUPANCY_FORMAT_OCTOMAP_BT;
-  TempFile file(octomap ? ".bt" : ".mavocc");
-  if (file.path().empty()) return Status::IoError("cannot create a temporary file");
-  if (octomap) {
-    MAV_RETURN_IF_ERROR(grid.WriteOctomap(file.path()));
-  } else {
-    // The project's lossless format lives with the simulator's grid (same layout and values).
-    sim::OccupancyGrid out(grid.origin(), grid.resolution(), grid.size());
-    const Eigen::Vector3i& n = grid.size();
-    for (int k = 0; k < n.z(); ++k) {
-      for (int j = 0; j < n.y(); ++j) {
-        for (int i = 0; i < n.x(); ++i) {
-          out.set({i, j, k}, static_cast<sim::VoxelState>(grid[grid.Linear(i, j, k)]));
-        }
-      }
-    }
-    MAV_RETURN_IF_ERROR(out.Write(file.path()));
-  }
-  return ReadFileToString(file.path());
+Result<std::string> EncodeOccupancy(const dataset::OccupancyGrid& grid,
+                                    v1::OccupancyFormat format) {
+  if (format == v1::OCCUPANCY_FORMAT_OCTOMAP_BT) return dataset::EncodeOctomapBt(grid);
+  return dataset::EncodeMavocc(grid);
 }
 
 // Streams `bytes` as FileChunks; `send` fills in the per-message wrapper and writes it.
@@ -248,7 +232,7 @@ grpc::Status MappingService::GetOccupancy(grpc::ServerContext* context,
   }
   Result<std::string> bytes = EncodeOccupancy(map->grid, format);
   if (!bytes.ok()) return ToGrpcStatus(bytes.status());
-  const mapping::GridGeometry& g = map->grid.geometry();
+  const dataset::GridGeometry& g = map->grid.geometry();
   return StreamChunks(context, *bytes, *chunk_bytes, [&](v1::FileChunk&& chunk, bool first) {
     v1::OccupancyChunk message;
     *message.mutable_chunk() = std::move(chunk);

@@ -65,7 +65,7 @@ class PresetScenarioSource : public ScenarioSource {
   }
   const camera::StereoCalibration& calibration() const override { return scenario_.calibration(); }
   const dataset::ImuNoise& imu_noise() const override { return scenario_.imu_noise(); }
-  Result<sim::OccupancyGrid> Occupancy(double resolution_m) const override {
+  Result<dataset::OccupancyGrid> Occupancy(double resolution_m) const override {
     return scenario_.ComputeOccupancy(resolution_m);
   }
   int64_t EstimateVoxels(double resolution_m) const override {
@@ -116,7 +116,7 @@ class EurocScenarioSource : public ScenarioSource {
   }
   const camera::StereoCalibration& calibration() const override { return reader_.calibration(); }
   const dataset::ImuNoise& imu_noise() const override { return reader_.imu_noise(); }
-  Result<sim::OccupancyGrid> Occupancy(double) const override {
+  Result<dataset::OccupancyGrid> Occupancy(double) const override {
     return Status::NotFound("the EuRoC directory " + info_.name +
                             " has no ground-truth occupancy (only rendered presets do)");
   }

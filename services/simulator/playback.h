@@ -28,11 +28,8 @@
 
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
+#include "mav/dataset/occupancy_grid.h"
 #include "mav/dataset/types.h"
-
-namespace mav::sim {
-class OccupancyGrid;
-}
 
 namespace mav::simulator {
 
@@ -67,7 +64,7 @@ class ScenarioSource {
   virtual const camera::StereoCalibration& calibration() const = 0;
   virtual const dataset::ImuNoise& imu_noise() const = 0;
   // Ground-truth occupancy (presets only; NotFound otherwise).
-  virtual Result<sim::OccupancyGrid> Occupancy(double resolution_m) const = 0;
+  virtual Result<dataset::OccupancyGrid> Occupancy(double resolution_m) const = 0;
   // Voxels a grid at this resolution would have (to refuse huge requests before computing).
   virtual int64_t EstimateVoxels(double resolution_m) const = 0;
 };

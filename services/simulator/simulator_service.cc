@@ -10,6 +10,7 @@
 
 #include "mav/common/file.h"
 #include "mav/common/log.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/sim/occupancy.h"
 #include "mav/transport/grpc_server.h"
 #include "services/simulator/convert.h"
@@ -166,17 +167,12 @@ grpc::Status SimulatorService::GetGroundTruthOccupancy(
                             std::to_string(voxels) + " voxels, over the server's limit of " +
                             std::to_string(options_.max_occupancy_voxels));
   }
-  Result<sim::OccupancyGrid> grid = source->Occupancy(resolution);
+  Result<dataset::OccupancyGrid> grid = source->Occupancy(resolution);
   if (!grid.ok()) return ToGrpcStatus(grid.status());
 
-  const bool octomap = format == v1::OCCUPANCY_FORMAT_OCTOMAP_BT;
-  TempFile file(octomap ? ".bt" : ".mavocc");
-  if (file.path().empty()) {
-    return ToGrpcStatus(Status::IoError("cannot create a temporary file"));
-  }
-  const Status written = octomap ? grid->WriteOctomap(file.path()) : grid->Write(file.path());
-  if (!written.ok()) return ToGrpcStatus(written);
-  Result<std::string> bytes = ReadFileToString(file.path());
+  Result<std::string> bytes = format == v1::OCCUPANCY_FORMAT_OCTOMAP_BT
+                                  ? dataset::EncodeOctomapBt(*grid)
+                                  : dataset::EncodeMavocc(*grid);
   if (!bytes.ok()) return ToGrpcStatus(bytes.status());
 
   const Eigen::Vector3d min = grid->origin();

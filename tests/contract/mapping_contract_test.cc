@@ -20,6 +20,7 @@
 #include <octomap/OcTree.h>
 #include <opencv2/core/mat.hpp>
 
+#include "mav/dataset/occupancy_io.h"
 #include "mav/v1/mapping.grpc.pb.h"
 
 #include "mav/common/file.h"
@@ -534,11 +535,11 @@ TEST_F(MappingContractTest, BuildQueryDownloadAndReset) {
   {
     const std::string path = ::testing::TempDir() + "/mapping_contract.mavocc";
     ASSERT_TRUE(WriteStringToFileAtomic(path, bytes).ok());
-    Result<sim::OccupancyGrid> grid = sim::OccupancyGrid::Read(path);
+    Result<dataset::OccupancyGrid> grid = dataset::ReadMavocc(path);
     ASSERT_TRUE(grid.ok()) << grid.status().ToString();
     EXPECT_DOUBLE_EQ(grid->resolution(), 0.1);
-    EXPECT_EQ(grid->Count(sim::VoxelState::kUnknown), 0);
-    EXPECT_EQ(static_cast<uint64_t>(grid->Count(sim::VoxelState::kOccupied)),
+    EXPECT_EQ(grid->Count(dataset::VoxelState::kUnknown), 0);
+    EXPECT_EQ(static_cast<uint64_t>(grid->Count(dataset::VoxelState::kOccupied)),
               octo_stats.occupancy().occupied_voxels());
   }
   occupancy.set_chunk_size(100);

@@ -68,8 +68,8 @@ v1::Box BoxAround(const Eigen::Vector3d& c, double half) {
 }
 
 // True when every ground-truth voxel the box [c - half, c + half] touches has `state`.
-bool AllVoxels(const sim::OccupancyGrid& grid, const Eigen::Vector3d& c, double half,
-               sim::VoxelState state) {
+bool AllVoxels(const dataset::OccupancyGrid& grid, const Eigen::Vector3d& c, double half,
+               dataset::VoxelState state) {
   const Eigen::Vector3i lo = grid.IndexOf(c - Eigen::Vector3d::Constant(half));
   const Eigen::Vector3i hi = grid.IndexOf(c + Eigen::Vector3d::Constant(half));
   for (int k = lo.z(); k <= hi.z(); ++k) {
@@ -235,7 +235,7 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
   options.seed = 1;
   Result<sim::Scenario> scenario = sim::Scenario::Create(options);
   ASSERT_TRUE(scenario.ok()) << scenario.status().ToString();
-  const sim::OccupancyGrid truth = scenario->ComputeOccupancy(0.05);
+  const dataset::OccupancyGrid truth = scenario->ComputeOccupancy(0.05);
   constexpr double kHalf = 0.05;
   constexpr double kSolidHalf = 0.025;
   constexpr double kMaxSolidDepth = 6.0;
@@ -245,7 +245,7 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
     const geometry::SE3 T_world_body = scenario->StateAt(scenario->FrameTimeNs(k)).T_world_body;
     const Eigen::Vector3d p =
         T_world_body * scenario->calibration().T_body_cam0 * Eigen::Vector3d(0, 0, kAhead);
-    if (AllVoxels(truth, p, kHalf, sim::VoxelState::kFree)) in_front.push_back(p);
+    if (AllVoxels(truth, p, kHalf, dataset::VoxelState::kFree)) in_front.push_back(p);
   }
   const v1::Box& b = built.occupancy().bounds();
   const Eigen::AlignedBox3d map_bounds(Eigen::Vector3d(b.min().x(), b.min().y(), b.min().z()),
@@ -262,11 +262,11 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
       const Eigen::Vector3d origin = T_world_cam.Translation();
       const Eigen::Vector3d direction = T_world_cam.Rotation() * ray.normalized();
       for (double d = 0.1; d < kMaxSolidDepth; d += 0.01) {
-        const sim::VoxelState state = truth.StateAt(origin + d * direction);
-        if (state == sim::VoxelState::kFree) continue;
+        const dataset::VoxelState state = truth.StateAt(origin + d * direction);
+        if (state == dataset::VoxelState::kFree) continue;
         const Eigen::Vector3d c = origin + (d + 0.04) * direction;
-        if (state == sim::VoxelState::kOccupied && map_bounds.contains(c) &&
-            AllVoxels(truth, c, kSolidHalf, sim::VoxelState::kOccupied)) {
+        if (state == dataset::VoxelState::kOccupied && map_bounds.contains(c) &&
+            AllVoxels(truth, c, kSolidHalf, dataset::VoxelState::kOccupied)) {
           solid.push_back(c);
         }
         break;

@@ -382,7 +382,7 @@ Result<BoxOccupancy> OctomapMapper::Classify(const Eigen::AlignedBox3d& box_worl
   return known < keys.Volume() ? BoxOccupancy::kUnknown : BoxOccupancy::kFree;
 }
 
-Result<VoxelGrid> OctomapMapper::ToGrid(const GridGeometry& geometry) const {
+Result<OccupancyGrid> OctomapMapper::ToGrid(const GridGeometry& geometry) const {
   std::string why;
   if (!geometry.IsValid(&why)) return Status::InvalidArgument("geometry: " + why);
   const octomap::OcTree& tree = *impl_->tree;
@@ -451,7 +451,7 @@ Result<VoxelGrid> OctomapMapper::ToGrid(const GridGeometry& geometry) const {
       states[idx] = VoxelState::kFree;
     }
   }
-  return VoxelGrid(geometry, std::move(states));
+  return OccupancyGrid(geometry, std::move(states));
 }
 
 Status OctomapMapper::WriteBinary(const std::string& path) const {

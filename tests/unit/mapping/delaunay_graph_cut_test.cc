@@ -314,7 +314,7 @@ TEST(BuildMeshTest, SyntheticRoomCollisionMcc) {
   g.origin = Eigen::Vector3d(-0.2, -0.2, -0.2);
   g.resolution = 0.05;
   g.size = Eigen::Vector3i(168, 128, 68);
-  const VoxelGrid truth = scene.TruthGrid(g);
+  const OccupancyGrid truth = scene.TruthGrid(g);
   const auto grid = MeshToOccupancy(*meshing, points, keyframes, g);
   ASSERT_TRUE(grid.ok());
   const auto eval = EvaluateCollisions(truth, *grid);

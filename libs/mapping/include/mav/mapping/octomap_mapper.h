@@ -44,7 +44,7 @@
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
 #include "mav/geometry/se3.h"
-#include "mav/mapping/voxel_grid.h"
+#include "mav/mapping/types.h"
 
 namespace cv {
 class Mat;
@@ -181,12 +181,12 @@ class OctomapMapper {
   // non-finite box ("box: ..."), or one outside OctoMap's addressable +-1638 m (at 5 cm).
   Result<BoxOccupancy> Classify(const Eigen::AlignedBox3d& box_world) const;
 
-  // The map sampled onto a dense grid (layout of VoxelGrid / mav::sim::OccupancyGrid, x fastest).
-  // Each grid voxel gets the Classify rule applied to its cube, so grids of another resolution
-  // or alignment stay conservative. When origin / resolution are multiples of the map resolution
-  // each grid voxel is exactly one octree voxel. Cost O(leaves + voxels).
+  // The map sampled onto a dense grid (layout of OccupancyGrid / mav::dataset::OccupancyGrid, x
+  // fastest). Each grid voxel gets the Classify rule applied to its cube, so grids of another
+  // resolution or alignment stay conservative. When origin / resolution are multiples of the map
+  // resolution each grid voxel is exactly one octree voxel. Cost O(leaves + voxels).
   // InvalidArgument "geometry: ..." for an invalid geometry.
-  Result<VoxelGrid> ToGrid(const GridGeometry& geometry) const;
+  Result<OccupancyGrid> ToGrid(const GridGeometry& geometry) const;
 
   // OctoMap binary (.bt, maximum-likelihood occupied/free leaves; octovis reads it). IoError
   // naming the path when writing fails.

@@ -38,7 +38,6 @@
 #include "mav/mapping/octomap_mapper.h"
 #include "mav/mapping/sparse_points.h"
 #include "mav/mapping/types.h"
-#include "mav/mapping/voxel_grid.h"
 
 namespace cv {
 class Mat;
@@ -105,13 +104,13 @@ struct MappingOutput {
   std::vector<MapPoint> points;              // the global sparse cloud with visibility
   std::vector<KeyframeView> keyframe_views;  // camera centres (ids index keyframe_poses)
   MeshingResult meshing;                     // mesh, labelled tetrahedra, stats
-  VoxelGrid sparse_mesh_grid;                // on the geometry given to Finish()
+  OccupancyGrid sparse_mesh_grid;            // on the geometry given to Finish()
   int64_t lines_of_sight = 0;                // given to MeshToOccupancy (SightPoints())
   SparsePointsStats sparse_stats;
   SparseMeshTiming sparse_mesh_timing;
 
   bool has_octomap = false;
-  VoxelGrid octomap_grid;  // on the geometry given to Finish()
+  OccupancyGrid octomap_grid;  // on the geometry given to Finish()
   OctomapMapperStats octomap_stats;
   OctomapTiming octomap_timing;
 };

@@ -8,6 +8,7 @@
 #include <grpcpp/client_context.h>
 #include <grpcpp/support/status.h>
 
+#include "services/common/grpc_status.h"
 #include "mav/common/time.h"
 #include "mav/transport/flags.h"
 #include "mav/transport/grpc_server.h"
@@ -60,7 +61,7 @@ void SetDeadline(const Connection& connection, grpc::ClientContext* context) {
 
 int ReportRpcError(const Connection& connection, const std::string& rpc,
                    const grpc::Status& status) {
-  const Status mapped = transport::FromGrpcStatus(status);
+  const Status mapped = service_common::FromGrpcStatus(status);
   if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
     std::cerr << "mavctl: cannot connect to " << connection.Target() << " (" << rpc
               << "): " << status.error_message() << "\n";

@@ -151,7 +151,7 @@ Result<ListenReport> Listen(const ListenOptions& options, std::ostream& progress
           if (!samples.valid(i)) continue;
           const mav_dds_StereoFrame& frame = samples[i];
           stereo_seq.Add(static_cast<int64_t>(frame.sequence_number), now_mono);
-          const Status check = services::CheckStereoFrame(frame);
+          const Status check = service_common::CheckStereoFrame(frame);
           if (!check.ok()) {
             ++report.crc_failures;
             if (report.first_error.empty()) report.first_error = check.message();

@@ -5,7 +5,7 @@
 
 #include <zlib.h>
 
-namespace mav::services {
+namespace mav::service_common {
 
 uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
                      size_t right_size) {
@@ -56,4 +56,4 @@ void CopyId(const char* id, char (&out)[33]) {
   out[sizeof(out) - 1] = '\0';
 }
 
-}  // namespace mav::services
+}  // namespace mav::service_common

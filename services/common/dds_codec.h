@@ -10,7 +10,7 @@
 #include "mav/common/status.h"
 #include "services/common/proto_codec.h"
 
-namespace mav::services {
+namespace mav::service_common {
 
 // CRC-32 (IEEE 802.3, zlib's crc32) over `left` followed by `right`, as the IDL specifies.
 uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
@@ -26,4 +26,4 @@ StereoImages StereoFromDds(const mav_dds_StereoFrame& frame);
 // Copies a NUL-terminated id into an IDL string<32> field, truncating if needed.
 void CopyId(const char* id, char (&out)[33]);
 
-}  // namespace mav::services
+}  // namespace mav::service_common

@@ -5,7 +5,7 @@
 #include <sstream>
 #include <tuple>
 
-namespace mav::services {
+namespace mav::service_common {
 namespace {
 
 std::string Number(double v) {
@@ -15,6 +15,15 @@ std::string Number(double v) {
 }
 
 }  // namespace
+
+void ToProto(const RuntimeStats& stats, v1::RuntimeStats* out) {
+  out->set_count(stats.count);
+  out->set_mean_ms(stats.mean_ms);
+  out->set_median_ms(stats.median_ms);
+  out->set_p95_ms(stats.p95_ms);
+  out->set_p99_ms(stats.p99_ms);
+  out->set_max_ms(stats.max_ms);
+}
 
 void ToProto(const geometry::SE3& pose, v1::Pose* out) {
   const Eigen::Vector3d& t = pose.Translation();
@@ -157,4 +166,4 @@ Result<StereoImages> StereoFromProto(const v1::StereoPair& pair, const std::stri
   return out;
 }
 
-}  // namespace mav::services
+}  // namespace mav::service_common

@@ -10,12 +10,14 @@
 
 #include "mav/camera/pinhole.h"
 #include "mav/camera/stereo.h"
+#include "mav/common/stats.h"
 #include "mav/common/status.h"
 #include "mav/geometry/se3.h"
 
-namespace mav::services {
+namespace mav::service_common {
 
 void ToProto(const geometry::SE3& pose, v1::Pose* out);
+void ToProto(const RuntimeStats& stats, v1::RuntimeStats* out);
 void ToProto(const camera::PinholeRadTan& camera, v1::CameraIntrinsics* out);
 
 // A Pose validated as common.proto says: finite position, quaternion norm within 1e-3 of 1
@@ -47,4 +49,4 @@ struct StereoImages {
 };
 Result<StereoImages> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
 
-}  // namespace mav::services
+}  // namespace mav::service_common

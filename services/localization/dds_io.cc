@@ -7,16 +7,10 @@
 
 namespace mav::localization_service {
 
-using services::CopyId;
-
-namespace {
-
-constexpr int64_t kReaderPollNs = 100'000'000;
-
-}  // namespace
+using service_common::CopyId;
 
 StereoInput FromDds(const mav_dds_StereoFrame& frame) {
-  services::StereoImages images = services::StereoFromDds(frame);
+  service_common::StereoImages images = service_common::StereoFromDds(frame);
   StereoInput out;
   out.t_ns = images.t_ns;
   out.rectified = images.rectified;
@@ -25,7 +19,7 @@ StereoInput FromDds(const mav_dds_StereoFrame& frame) {
   return out;
 }
 
-mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const PoseOutput& pose, OutputFrame frame,
+mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const RigPose& pose, OutputFrame frame,
                                  int64_t publish_t_ns) {
   mav_dds_PoseWithCovariance out{};
   out.vehicle_id = mav_dds_kDefaultVehicleId;
@@ -33,7 +27,7 @@ mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const PoseOutput& pose, Outp
   out.t_ns = pose.t_ns;
   out.publish_t_ns = publish_t_ns;
   CopyId("world", out.frame_id);
-  CopyId(OutputFrameName(frame), out.child_frame_id);
+  CopyId(localization::OutputFrameName(frame), out.child_frame_id);
   const Eigen::Vector3d& t = pose.T_world_out.Translation();
   out.position = {t.x(), t.y(), t.z()};
   const Eigen::Quaterniond& q = pose.T_world_out.Rotation();
@@ -77,7 +71,7 @@ DdsIo::~DdsIo() {
   StopReaderLocked();
 }
 
-Status DdsIo::PublishPose(const PoseOutput& pose, OutputFrame frame) {
+Status DdsIo::PublishPose(const RigPose& pose, OutputFrame frame) {
   const uint64_t sequence = pose_sequence_.fetch_add(1);
   return pose_writer_.Write(ToDds(sequence, pose, frame, WallNowNs()));
 }
@@ -93,10 +87,7 @@ bool DdsIo::stereo_input() const {
 }
 
 void DdsIo::StopReaderLocked() {
-  if (reader_thread_.joinable()) {
-    stop_reader_ = true;
-    reader_thread_.join();
-  }
+  read_loop_.reset();  // joins the loop before its readers go
   stereo_reader_.reset();
   imu_reader_.reset();
 }
@@ -120,49 +111,27 @@ Status DdsIo::SetStereoInput(bool enabled) {
                                      participant_, imu_topic_, Qos::HighRate()));
   stereo_reader_.emplace(std::move(stereo));
   imu_reader_.emplace(std::move(imu));
-  stop_reader_ = false;
-  reader_thread_ = std::thread([this] { ReadLoop(); });
+  read_loop_.emplace("localization input");
+  // IMU: counted (the VO is vision-only); its history (2 s) outlasts the poll period.
+  read_loop_->AddReader<mav_dds_ImuSample>(&*imu_reader_,
+                                           [this](const mav_dds_ImuSample&) { ++imu_received_; });
+  read_loop_->SetWakeReader<mav_dds_StereoFrame>(
+      &*stereo_reader_, [this](const mav_dds_StereoFrame& frame) { OnFrame(frame); }, 4);
+  MAV_RETURN_IF_ERROR(read_loop_->Start());
   MAV_LOG(kInfo) << "DDS input on: " << transport::kStereoTopic << ", " << transport::kImuTopic;
   return Status::Ok();
 }
 
-// The readers are not replaced while this thread runs (SetStereoInput joins it first).
-void DdsIo::ReadLoop() {
-  while (!stop_reader_) {
-    Result<bool> ready = stereo_reader_->WaitForData(kReaderPollNs);
-    if (!ready.ok()) {
-      MAV_LOG(kWarning) << ready.status().ToString();
-      continue;
-    }
-    // IMU: counted (the VO is vision-only); the history (2 s) outlasts the poll period.
-    Result<transport::LoanedSamples<mav_dds_ImuSample>> imu = imu_reader_->Take(256);
-    if (imu.ok()) {
-      for (int32_t i = 0; i < imu->size(); ++i) {
-        if (imu->valid(i)) ++imu_received_;
-      }
-    }
-    if (!*ready) continue;
-    Result<transport::LoanedSamples<mav_dds_StereoFrame>> frames = stereo_reader_->Take(4);
-    if (!frames.ok()) {
-      MAV_LOG(kWarning) << frames.status().ToString();
-      continue;
-    }
-    for (int32_t i = 0; i < frames->size(); ++i) {
-      if (!frames->valid(i)) continue;
-      ++frames_received_;
-      const mav_dds_StereoFrame& frame = (*frames)[i];
-      const Status check = CheckStereoFrame(frame);
-      if (!check.ok()) {
-        MAV_LOG(kWarning) << "rejected: " << check.message();
-        localizer_->CountRejected();
-        continue;
-      }
-      const SubmitOutcome outcome = localizer_->SubmitLive(FromDds(frame));
-      if (outcome == SubmitOutcome::kQueuedDroppedOldest || outcome == SubmitOutcome::kDropped) {
-        MAV_LOG(kDebug) << "queue full: dropped a frame";
-      }
-    }
+void DdsIo::OnFrame(const mav_dds_StereoFrame& frame) {
+  ++frames_received_;
+  const Status check = CheckStereoFrame(frame);
+  if (!check.ok()) {
+    MAV_LOG(kWarning) << "rejected: " << check.message();
+    localizer_->CountRejected();
+    return;
   }
+  const Status queued = localizer_->SubmitLive(FromDds(frame));
+  if (!queued.ok()) MAV_LOG(kDebug) << "live frame not queued: " << queued.message();
 }
 
 }  // namespace mav::localization_service

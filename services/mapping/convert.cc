@@ -131,7 +131,7 @@ Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
 }
 
 Result<FrameInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
-  MAV_ASSIGN_OR_RETURN(services::StereoImages images, services::StereoFromProto(pair, field));
+  MAV_ASSIGN_OR_RETURN(service_common::StereoImages images, service_common::StereoFromProto(pair, field));
   FrameInput out;
   out.t_ns = images.t_ns;
   out.rectified = images.rectified;

@@ -20,9 +20,9 @@
 
 namespace mav::mapping_service {
 
-using services::CalibrationFromProto;  // services/common/proto_codec.h
-using services::PoseFromProto;
-using services::RigCalibration;
+using service_common::CalibrationFromProto;  // services/common/proto_codec.h
+using service_common::PoseFromProto;
+using service_common::RigCalibration;
 
 // MappingMethod -> library method. UNSPECIFIED: nullopt when `allow_unspecified` (= "the most
 // recent build"), else InvalidArgument "<field>: not set ...". Unknown values: InvalidArgument.

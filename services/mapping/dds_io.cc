@@ -15,7 +15,7 @@ constexpr int32_t kPoseBatch = 512;
 }  // namespace
 
 FrameInput FromDds(const mav_dds_StereoFrame& frame) {
-  services::StereoImages images = services::StereoFromDds(frame);
+  service_common::StereoImages images = service_common::StereoFromDds(frame);
   FrameInput out;
   out.t_ns = images.t_ns;
   out.rectified = images.rectified;
@@ -171,7 +171,7 @@ void DdsIo::ReadLoop() {
       if (!frames->valid(i)) continue;
       ++frames_received_;
       const mav_dds_StereoFrame& frame = (*frames)[i];
-      const Status check = services::CheckStereoFrame(frame);
+      const Status check = service_common::CheckStereoFrame(frame);
       if (!check.ok()) {
         MAV_LOG(kWarning) << "rejected: " << check.message();
         mapper_->CountRejected();

@@ -29,7 +29,7 @@
 
 namespace mav::mapping_service {
 
-// Copies a frame's pixels (check it first with services::CheckStereoFrame,
+// Copies a frame's pixels (check it first with service_common::CheckStereoFrame,
 // services/common/dds_codec.h).
 FrameInput FromDds(const mav_dds_StereoFrame& frame);
 

@@ -19,12 +19,13 @@
 #include "mav/dataset/occupancy_io.h"
 #include "mav/mapping/mesh.h"
 #include "mav/transport/grpc_server.h"
+#include "services/common/grpc_status.h"
 
 namespace mav::mapping_service {
 
 namespace {
 
-using transport::ToGrpcStatus;
+using service_common::ToGrpcStatus;
 
 constexpr uint32_t kDefaultChunkBytes = 1 << 20;
 constexpr uint32_t kMinChunkBytes = 4096;

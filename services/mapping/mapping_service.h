@@ -31,7 +31,7 @@ struct MappingServiceOptions {
   bool IsValid(std::string* why) const;
 };
 
-using services::ResolveCalibration;  // services/common/calibration_source.h
+using service_common::ResolveCalibration;  // services/common/calibration_source.h
 
 class MappingService final : public v1::Mapping::Service {
  public:

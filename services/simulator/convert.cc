@@ -3,7 +3,7 @@
 #include <cmath>
 #include <sstream>
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
 namespace {
 
@@ -158,4 +158,4 @@ void ToProto(const dataset::ImuNoise& noise, double rate_hz, v1::ImuNoise* out) 
   out->set_rate_hz(rate_hz);
 }
 
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

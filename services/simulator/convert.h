@@ -13,7 +13,7 @@
 #include "mav/dataset/types.h"
 #include "services/simulator/playback.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
 // Which scenario a LoadScenarioRequest asks for.
 struct LoadRequest {
@@ -32,10 +32,10 @@ Result<Pacing> FromProto(const v1::SimulatorStartRequest& request);
 void ToProto(const ScenarioInfo& info, v1::ScenarioSummary* out);
 void ToProto(const PlayerStatus& status, v1::SimulatorStatus* out);
 void ToProto(const Stats& stats, v1::RuntimeStats* out);
-using services::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics
+using service_common::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics
 void ToProto(const camera::StereoCalibration& calibration, double rate_hz, bool rectified,
              v1::StereoCalibration* out);
 void ToProto(const dataset::ImuNoise& noise, double rate_hz, v1::ImuNoise* out);
 v1::SimulatorState ToProto(PlayerState state);
 
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

@@ -5,9 +5,9 @@
 #include "mav/common/check.h"
 #include "mav/common/time.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
-using services::CopyId;
+using service_common::CopyId;
 
 namespace {
 
@@ -142,4 +142,4 @@ uint32_t DdsStreamSink::ImuSubscribers() {
   return n.ok() ? *n : 0;
 }
 
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

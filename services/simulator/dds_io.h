@@ -17,10 +17,10 @@
 #include "services/common/dds_codec.h"
 #include "services/simulator/playback.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
-using services::CheckStereoFrame;
-using services::StereoCrc32;
+using service_common::CheckStereoFrame;
+using service_common::StereoCrc32;
 
 // Fills `out` for `frame`. The image sequences BORROW the frame's pixel buffers (no copy): `out`
 // is valid only while `frame` lives, and must not be freed with mav_dds_StereoFrame_free.
@@ -73,4 +73,4 @@ class DdsStreamSink : public StreamSink {
   transport::Writer<mav_dds_GroundTruthState> gt_;
 };
 
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

@@ -57,16 +57,16 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  auto sink = mav::simulator::DdsStreamSink::Create(dds_options);
+  auto sink = mav::simulator_service::DdsStreamSink::Create(dds_options);
   if (!sink.ok()) return Fail(sink.status());
-  mav::simulator::SimulatorService service(sink->get());
+  mav::simulator_service::SimulatorService service(sink->get());
 
   if (!preset.empty() || !euroc.empty()) {
-    mav::simulator::PresetRequest request;
+    mav::simulator_service::PresetRequest request;
     request.name = preset;
     request.frames = frames;
     auto source =
-        !preset.empty() ? mav::simulator::OpenPreset(request) : mav::simulator::OpenEuroc(euroc);
+        !preset.empty() ? mav::simulator_service::OpenPreset(request) : mav::simulator_service::OpenEuroc(euroc);
     if (!source.ok()) return Fail(source.status());
     service.player().Load(std::move(*source));
   }

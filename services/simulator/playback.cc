@@ -14,7 +14,7 @@
 #include "mav/sim/scenario.h"
 #include "mav/sim/world.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
 namespace {
 
@@ -584,4 +584,4 @@ void Player::WorkerLoop() {
   }
 }
 
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

@@ -31,7 +31,7 @@
 #include "mav/dataset/occupancy_grid.h"
 #include "mav/dataset/types.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
 // What a loaded scenario is (ScenarioSummary in the proto).
 struct ScenarioInfo {
@@ -235,4 +235,4 @@ class Player {
   std::string last_error_;
 };
 
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

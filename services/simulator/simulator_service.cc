@@ -14,12 +14,13 @@
 #include "mav/sim/occupancy.h"
 #include "mav/transport/grpc_server.h"
 #include "services/simulator/convert.h"
+#include "services/common/grpc_status.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
 namespace {
 
-using transport::ToGrpcStatus;
+using service_common::ToGrpcStatus;
 
 constexpr double kDefaultResolutionM = 0.05;
 constexpr uint32_t kDefaultChunkBytes = 1 << 20;
@@ -206,4 +207,4 @@ grpc::Status SimulatorService::GetGroundTruthOccupancy(
   return grpc::Status::OK;
 }
 
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

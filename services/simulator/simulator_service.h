@@ -11,7 +11,7 @@
 
 #include "services/simulator/playback.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
 struct SimulatorServiceOptions {
   // Largest ground-truth occupancy grid GetGroundTruthOccupancy computes (voxels, one byte each
@@ -51,4 +51,4 @@ class SimulatorService final : public v1::Simulator::Service {
   Player player_;
 };
 
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

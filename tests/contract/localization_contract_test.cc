@@ -33,7 +33,7 @@
 #include "services/localization/convert.h"
 #include "services/localization/dds_io.h"
 #include "services/localization/localization_service.h"
-#include "services/localization/pipeline.h"
+#include "services/localization/localizer.h"
 #include "services/simulator/simulator_service.h"
 
 namespace mav::localization_service {
@@ -101,7 +101,7 @@ bool StartsWith(const std::string& text, const std::string& prefix) {
 // Records every published pose; optionally blocks the worker inside PublishPose.
 class RecordingSink : public PoseSink {
  public:
-  Status PublishPose(const PoseOutput& pose, OutputFrame frame) override {
+  Status PublishPose(const RigPose& pose, OutputFrame frame) override {
     std::unique_lock<std::mutex> lock(mutex_);
     poses_.push_back(pose);
     frames_.push_back(frame);
@@ -113,7 +113,7 @@ class RecordingSink : public PoseSink {
     }
     return Status::Ok();
   }
-  std::vector<PoseOutput> poses() {
+  std::vector<RigPose> poses() {
     std::lock_guard<std::mutex> lock(mutex_);
     return poses_;
   }
@@ -130,7 +130,7 @@ class RecordingSink : public PoseSink {
  private:
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::vector<PoseOutput> poses_;
+  std::vector<RigPose> poses_;
   std::vector<OutputFrame> frames_;
   bool block_ = false;
   bool blocked_ = false;
@@ -372,9 +372,9 @@ TEST_F(LocalizationContractTest, ConfigureReadsAnEurocDirectory) {
 
 // A simulator service on a real loopback port as the calibration source.
 TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
-  class NullSink : public simulator::StreamSink {
+  class NullSink : public simulator_service::StreamSink {
    public:
-    Status PublishStereo(uint64_t, const simulator::RenderedFrame&, bool) override {
+    Status PublishStereo(uint64_t, const simulator_service::RenderedFrame&, bool) override {
       return Status::Ok();
     }
     Status PublishImu(uint64_t, const dataset::ImuSample&) override { return Status::Ok(); }
@@ -386,7 +386,7 @@ TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
     uint32_t ImuSubscribers() override { return 0; }
     uint32_t domain() const override { return 0; }
   } null_sink;
-  simulator::SimulatorService simulator(&null_sink);
+  simulator_service::SimulatorService simulator(&null_sink);
   auto simulator_server = transport::GrpcServer::Start(transport::ServerOptions{}, {&simulator});
   ASSERT_TRUE(simulator_server.ok()) << simulator_server.status().ToString();
 
@@ -397,10 +397,10 @@ TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
   EXPECT_EQ(status.error_code(), StatusCode::FAILED_PRECONDITION) << status.error_message();
   EXPECT_TRUE(StartsWith(status.error_message(), "calibration.simulator_address:"));
 
-  simulator::PresetRequest preset;
+  simulator_service::PresetRequest preset;
   preset.name = "room-easy";
   preset.frames = 5;
-  auto source = simulator::OpenPreset(preset);
+  auto source = simulator_service::OpenPreset(preset);
   ASSERT_TRUE(source.ok()) << source.status().ToString();
   simulator.player().Load(std::move(*source));
   v1::LocalizationStatus configured;
@@ -616,7 +616,7 @@ TEST_F(LocalizationContractTest, AFullQueueRejectsUnaryRequestsAndDropsLiveFrame
   live.t_ns = TestFrames().scenario.FrameTimeNs(3);
   live.left = TestFrames().left[3];
   live.right = TestFrames().right[3];
-  EXPECT_EQ(localizer_->SubmitLive(live), SubmitOutcome::kDropped);
+  EXPECT_EQ(localizer_->SubmitLive(live).code(), mav::StatusCode::kResourceExhausted);
   EXPECT_EQ(GetStatus().frames_dropped(), 1u);
 
   sink_.SetBlocking(false);
@@ -625,22 +625,22 @@ TEST_F(LocalizationContractTest, AFullQueueRejectsUnaryRequestsAndDropsLiveFrame
   // Now live frames queue; a second one while the first waits drops the older one.
   sink_.SetBlocking(true);
   live.t_ns = TestFrames().scenario.FrameTimeNs(3);
-  EXPECT_EQ(localizer_->SubmitLive(live), SubmitOutcome::kQueued);
+  EXPECT_TRUE(localizer_->SubmitLive(live).ok());
   ASSERT_TRUE(sink_.WaitUntilBlocked(std::chrono::seconds(20)));
   live.t_ns = TestFrames().scenario.FrameTimeNs(4);
   live.left = TestFrames().left[4];
   live.right = TestFrames().right[4];
-  EXPECT_EQ(localizer_->SubmitLive(live), SubmitOutcome::kQueued);
+  EXPECT_TRUE(localizer_->SubmitLive(live).ok());
   live.t_ns = TestFrames().scenario.FrameTimeNs(5);
   live.left = TestFrames().left[5];
   live.right = TestFrames().right[5];
-  EXPECT_EQ(localizer_->SubmitLive(live), SubmitOutcome::kQueuedDroppedOldest);
+  EXPECT_TRUE(localizer_->SubmitLive(live).ok());  // drops the older live frame
   // A malformed live frame is counted as rejected.
   StereoInput bad;
   bad.t_ns = TestFrames().scenario.FrameTimeNs(6);
   bad.left = cv::Mat(10, 10, CV_8UC1, cv::Scalar(0));
   bad.right = bad.left;
-  EXPECT_EQ(localizer_->SubmitLive(bad), SubmitOutcome::kRejected);
+  EXPECT_EQ(localizer_->SubmitLive(bad).code(), mav::StatusCode::kInvalidArgument);
   sink_.SetBlocking(false);
   const auto done = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (GetStatus().frames_processed() < 4 && std::chrono::steady_clock::now() < done) {
@@ -778,7 +778,7 @@ TEST_F(LocalizationContractTest, LoopbackPortAnswersHealthChecksAndRpcs) {
 // ---- DDS conversions ----------------------------------------------------------------------------
 
 TEST(LocalizationDdsTest, PoseSamplesCarryTheContractFields) {
-  PoseOutput pose;
+  RigPose pose;
   pose.t_ns = 123;
   pose.T_world_out =
       geometry::SE3(Eigen::Quaterniond(0.5, 0.5, 0.5, 0.5), Eigen::Vector3d(1.0, 2.0, 3.0));

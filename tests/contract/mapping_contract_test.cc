@@ -749,15 +749,15 @@ TEST(MappingDdsTest, StereoFramesAreCheckedNamingTheField) {
   frame.left._length = 12;
   frame.right._buffer = right.data();
   frame.right._length = 12;
-  frame.crc32 = services::StereoCrc32(left.data(), 12, right.data(), 12);
-  EXPECT_TRUE(services::CheckStereoFrame(frame).ok());
+  frame.crc32 = service_common::StereoCrc32(left.data(), 12, right.data(), 12);
+  EXPECT_TRUE(service_common::CheckStereoFrame(frame).ok());
   const FrameInput input = FromDds(frame);
   EXPECT_EQ(input.left.cols, 4);
   EXPECT_EQ(input.right.at<uint8_t>(2, 3), 4);
   frame.crc32 ^= 1;
-  EXPECT_NE(services::CheckStereoFrame(frame).message().find("crc32"), std::string::npos);
+  EXPECT_NE(service_common::CheckStereoFrame(frame).message().find("crc32"), std::string::npos);
   frame.right._length = 11;
-  EXPECT_NE(services::CheckStereoFrame(frame).message().find("right: 11 bytes"), std::string::npos);
+  EXPECT_NE(service_common::CheckStereoFrame(frame).message().find("right: 11 bytes"), std::string::npos);
 }
 
 }  // namespace

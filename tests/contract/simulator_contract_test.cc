@@ -25,7 +25,7 @@
 #include "services/simulator/dds_io.h"
 #include "services/simulator/simulator_service.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 namespace {
 
 using grpc::StatusCode;
@@ -627,4 +627,4 @@ TEST(SimulatorTransportTest, CallingAPortWithoutServerFailsWithinTheDeadline) {
 }
 
 }  // namespace
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

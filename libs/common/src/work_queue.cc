@@ -159,6 +159,17 @@ void WorkQueue::Stop(const std::string& why) {
   if (worker_.joinable() && !OnWorkerThread()) worker_.join();
 }
 
+void WorkQueue::SetCapacity(size_t capacity) {
+  MAV_CHECK(capacity >= 1) << name() << ": capacity must be >= 1";
+  std::lock_guard<std::mutex> lock(core_->mutex);
+  core_->options.capacity = capacity;
+}
+
+size_t WorkQueue::capacity() const {
+  std::lock_guard<std::mutex> lock(core_->mutex);
+  return core_->options.capacity;
+}
+
 WorkQueueStats WorkQueue::GetStats() const {
   std::lock_guard<std::mutex> lock(core_->mutex);
   WorkQueueStats s = core_->counters;

@@ -164,7 +164,9 @@ Result<HealthStatus> CheckHealth(const std::shared_ptr<grpc::Channel>& channel,
   if (!rpc_status.ok()) {
     if (rpc_status.error_code() == grpc::StatusCode::NOT_FOUND)
       return HealthStatus::kServiceUnknown;
-    return FromGrpcStatus(rpc_status).WithContext("health check");
+    return Status::Unavailable("health check: gRPC code " +
+                               std::to_string(rpc_status.error_code()) + ": " +
+                               rpc_status.error_message());
   }
   std::vector<grpc::Slice> slices;
   if (!response_buffer.Dump(&slices).ok()) return Status::Internal("health check: bad response");
@@ -192,73 +194,6 @@ const char* HealthStatusName(HealthStatus status) {
       return "SERVICE_UNKNOWN";
   }
   return "?";
-}
-
-grpc::Status ToGrpcStatus(const Status& status) {
-  grpc::StatusCode code = grpc::StatusCode::UNKNOWN;
-  switch (status.code()) {
-    case StatusCode::kOk:
-      return grpc::Status::OK;
-    case StatusCode::kInvalidArgument:
-      code = grpc::StatusCode::INVALID_ARGUMENT;
-      break;
-    case StatusCode::kNotFound:
-      code = grpc::StatusCode::NOT_FOUND;
-      break;
-    case StatusCode::kFailedPrecondition:
-      code = grpc::StatusCode::FAILED_PRECONDITION;
-      break;
-    case StatusCode::kOutOfRange:
-      code = grpc::StatusCode::OUT_OF_RANGE;
-      break;
-    case StatusCode::kDataLoss:
-      code = grpc::StatusCode::DATA_LOSS;
-      break;
-    case StatusCode::kIoError:
-    case StatusCode::kInternal:
-      code = grpc::StatusCode::INTERNAL;
-      break;
-    case StatusCode::kUnavailable:
-      code = grpc::StatusCode::UNAVAILABLE;
-      break;
-    case StatusCode::kResourceExhausted:
-      code = grpc::StatusCode::RESOURCE_EXHAUSTED;
-      break;
-    case StatusCode::kDeadlineExceeded:
-      code = grpc::StatusCode::DEADLINE_EXCEEDED;
-      break;
-    case StatusCode::kCancelled:
-      code = grpc::StatusCode::CANCELLED;
-      break;
-  }
-  return grpc::Status(code, status.message());
-}
-
-Status FromGrpcStatus(const grpc::Status& status) {
-  switch (status.error_code()) {
-    case grpc::StatusCode::OK:
-      return Status::Ok();
-    case grpc::StatusCode::INVALID_ARGUMENT:
-      return Status::InvalidArgument(status.error_message());
-    case grpc::StatusCode::NOT_FOUND:
-      return Status::NotFound(status.error_message());
-    case grpc::StatusCode::FAILED_PRECONDITION:
-      return Status::FailedPrecondition(status.error_message());
-    case grpc::StatusCode::OUT_OF_RANGE:
-      return Status::OutOfRange(status.error_message());
-    case grpc::StatusCode::DATA_LOSS:
-      return Status::DataLoss(status.error_message());
-    case grpc::StatusCode::UNAVAILABLE:
-      return Status::Unavailable(status.error_message());
-    case grpc::StatusCode::DEADLINE_EXCEEDED:
-      return Status::DeadlineExceeded(status.error_message());
-    case grpc::StatusCode::RESOURCE_EXHAUSTED:
-      return Status::ResourceExhausted(status.error_message());
-    case grpc::StatusCode::CANCELLED:
-      return Status::Cancelled(status.error_message());
-    default:
-      return Status::Internal(status.error_message());
-  }
 }
 
 }  // namespace mav::transport

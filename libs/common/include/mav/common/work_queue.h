@@ -234,10 +234,13 @@ class WorkQueue {
   // running one and joins the worker. Idempotent.
   void Stop(const std::string& why = "shutting down");
 
+  // Changes the capacity (>= 1, MAV_CHECKed); tasks already waiting beyond it stay queued.
+  void SetCapacity(size_t capacity);
+
   WorkQueueStats GetStats() const;
   uint64_t generation() const { return core_->generation.load(); }
   const std::string& name() const { return core_->options.name; }
-  size_t capacity() const { return core_->options.capacity; }
+  size_t capacity() const;
   // True on the worker thread (for MAV_CHECKs of code that must run there).
   bool OnWorkerThread() const;
 

@@ -131,7 +131,9 @@ void DdsIo::OnFrame(const mav_dds_StereoFrame& frame) {
     return;
   }
   const Status queued = localizer_->SubmitLive(FromDds(frame));
-  if (!queued.ok()) MAV_LOG(kDebug) << "live frame not queued: " << queued.message();
+  if (!queued.ok()) {
+    MAV_LOG(kDebug) << "live frame not queued: " << queued.message();
+  }
 }
 
 }  // namespace mav::localization_service

@@ -220,7 +220,9 @@ Result<RigPose> Localizer::ProcessOnWorker(const StereoInput& input) {
   }
   if (input.publish && sink_ != nullptr) {
     const Status published = sink_->PublishPose(*pose, odometry_->options().output_frame);
-    if (!published.ok()) MAV_LOG(kWarning) << "publishing a pose: " << published.message();
+    if (!published.ok()) {
+      MAV_LOG(kWarning) << "publishing a pose: " << published.message();
+    }
   }
   return pose;
 }

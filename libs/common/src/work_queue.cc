@@ -202,12 +202,15 @@ void WorkQueue::WorkerLoop() {
     task->Run(TaskContext(&core, task->generation, task->termination));
     const double ms = MsSince(start_ns);
     task->phase = internal::TaskBase::kFinished;
-    task.reset();  // release the task's captures before anyone sees the queue idle
     lock.lock();
     core.busy = false;
     ++core.counters.completed;
     core.run_ms.Add(ms);
     core.idle_cv.notify_all();
+    lock.unlock();
+    task->Publish();
+    task.reset();
+    lock.lock();
   }
 }
 

@@ -35,6 +35,7 @@
 #include <future>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <type_traits>
@@ -93,7 +94,10 @@ struct TaskBase {
   uint64_t generation = 0;
 
   virtual ~TaskBase() = default;
+  // Runs the task and keeps its result; Publish() hands it to the ticket (after the queue's
+  // statistics count the task, so a waiter that wakes up sees them).
   virtual void Run(const TaskContext& context) = 0;
+  virtual void Publish() = 0;
   virtual void Fail(const Status& status) = 0;
 };
 
@@ -101,7 +105,12 @@ template <typename R>
 struct Task final : TaskBase {
   std::function<R(const TaskContext&)> fn;
   std::promise<R> promise;
-  void Run(const TaskContext& context) override { promise.set_value(fn(context)); }
+  std::optional<R> result;
+  void Run(const TaskContext& context) override {
+    result.emplace(fn(context));
+    fn = nullptr;  // release the captures (frames, maps) before the result is published
+  }
+  void Publish() override { promise.set_value(std::move(*result)); }
   void Fail(const Status& status) override { promise.set_value(R(status)); }
 };
 

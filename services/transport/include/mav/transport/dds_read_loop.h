@@ -89,7 +89,9 @@ class DdsReadLoop {
   void Run() {
     while (!stop_) {
       Result<bool> ready = wait_(poll_ns_);
-      if (!ready.ok()) MAV_LOG(kWarning) << name_ << ": " << ready.status().ToString();
+      if (!ready.ok()) {
+        MAV_LOG(kWarning) << name_ << ": " << ready.status().ToString();
+      }
       for (const auto& drain : drains_) drain();
       if (ready.ok() && *ready) wake_();
       if (on_poll_) on_poll_();

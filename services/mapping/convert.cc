@@ -37,14 +37,6 @@ Eigen::AlignedBox3d BoundsOf(const dataset::GridGeometry& g) {
   return Eigen::AlignedBox3d(g.origin, g.origin + g.size.cast<double>() * g.resolution);
 }
 
-void ToProto(const RuntimeSummary& stats, v1::RuntimeStats* out) {
-  out->set_count(stats.count);
-  out->set_mean_ms(stats.mean_ms);
-  out->set_median_ms(stats.median_ms);
-  out->set_p95_ms(stats.p95_ms);
-  out->set_max_ms(stats.max_ms);
-}
-
 }  // namespace
 
 Result<std::optional<MappingMethod>> MethodFromProto(v1::MappingMethod method,
@@ -131,7 +123,8 @@ Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
 }
 
 Result<FrameInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
-  MAV_ASSIGN_OR_RETURN(service_common::StereoImages images, service_common::StereoFromProto(pair, field));
+  MAV_ASSIGN_OR_RETURN(service_common::StereoImages images,
+                       service_common::StereoFromProto(pair, field));
   FrameInput out;
   out.t_ns = images.t_ns;
   out.rectified = images.rectified;

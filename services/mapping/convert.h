@@ -23,6 +23,7 @@ namespace mav::mapping_service {
 using service_common::CalibrationFromProto;  // services/common/proto_codec.h
 using service_common::PoseFromProto;
 using service_common::RigCalibration;
+using service_common::ToProto;
 
 // MappingMethod -> library method. UNSPECIFIED: nullopt when `allow_unspecified` (= "the most
 // recent build"), else InvalidArgument "<field>: not set ...". Unknown values: InvalidArgument.

@@ -20,10 +20,11 @@
 #include <octomap/OcTree.h>
 #include <opencv2/core/mat.hpp>
 
-#include "mav/dataset/occupancy_io.h"
 #include "mav/v1/mapping.grpc.pb.h"
 
+#include "mav/camera/rectifier.h"
 #include "mav/common/file.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/mapping/mesh.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/scenario.h"
@@ -408,12 +409,18 @@ TEST_F(MappingContractTest, TheKeyframeRuleSkipsFramesThatDidNotMoveAndTheLimitH
   EXPECT_EQ(response.points_total(), response.features());
   EXPECT_GT(response.processing_ms(), 0.0);
 
-  // Same pose again: not a keyframe; forced: a keyframe.
-  ASSERT_TRUE(Insert(KeyframeRequest(0, false), &response).ok());
+  // Same pose again (1 and 2 ns later): not a keyframe; forced: a keyframe.
+  v1::InsertKeyframeRequest same = KeyframeRequest(0, false);
+  same.mutable_stereo()->set_t_ns(same.stereo().t_ns() + 1);
+  ASSERT_TRUE(Insert(same, &response).ok());
   EXPECT_FALSE(response.accepted());
-  ASSERT_TRUE(Insert(KeyframeRequest(0, true), &response).ok());
+  same.mutable_stereo()->set_t_ns(same.stereo().t_ns() + 1);
+  same.set_force(true);
+  ASSERT_TRUE(Insert(same, &response).ok());
   EXPECT_TRUE(response.accepted());
   EXPECT_EQ(response.keyframe_index(), 1u);
+  // A time stamp that is not after the previous frame's is refused, as ProcessStereoPair does.
+  EXPECT_CODE(Insert(KeyframeRequest(0, true)), StatusCode::INVALID_ARGUMENT, "stereo.t_ns: ");
 
   EXPECT_CODE(Insert(KeyframeRequest(1, true)), StatusCode::RESOURCE_EXHAUSTED, "max_keyframes");
 
@@ -580,8 +587,8 @@ TEST_F(MappingContractTest, BuildQueryDownloadAndReset) {
   query.clear_boxes();
   EXPECT_CODE(Query(query), StatusCode::INVALID_ARGUMENT, "boxes: no boxes");
   // Empty Box messages keep the request small (2 bytes each): the count is checked first.
-  for (int i = 0; i < 100001; ++i) query.add_boxes();
-  EXPECT_CODE(Query(query), StatusCode::INVALID_ARGUMENT, "100000");
+  for (int i = 0; i < 50001; ++i) query.add_boxes();
+  EXPECT_CODE(Query(query), StatusCode::INVALID_ARGUMENT, "at most 50000 per call");
 
   // The mesh as PLY (binary and ASCII), with the faces BuildMap reported.
   v1::ExportMeshRequest mesh;
@@ -664,47 +671,51 @@ FrameInput Frame(int64_t t_ns) {
   return f;
 }
 
-geometry::SE3 At(double x) { return geometry::SE3(Eigen::Quaterniond::Identity(), {x, 0, 0}); }
+// BuildMap runs the library's pipeline: the service's grid is the one mav-eval's code path
+// (MappingPipeline::Finish) computes from the same keyframes, voxel for voxel, for both methods.
+TEST_F(MappingContractTest, BuildMapGridEqualsThePipelineGridOfTheSameKeyframes) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  const Data& data = TestData();
+  for (size_t i = 0; i < data.frames.size(); ++i) {
+    ASSERT_TRUE(Insert(KeyframeRequest(i, true)).ok());
+  }
+  Result<camera::RigRectification> rig = camera::RigRectification::Create(data.calibration, true);
+  ASSERT_TRUE(rig.ok());
+  Result<mapping::MappingPipeline> pipeline = mapping::MappingPipeline::Create(rig->rig);
+  ASSERT_TRUE(pipeline.ok()) << pipeline.status().ToString();
+  for (const Data::Frame& f : data.frames) {
+    ASSERT_TRUE(pipeline->InsertKeyframe(f.left, f.right, f.T_world_body * rig->T_body_rect0).ok());
+  }
+  const v1::Box bounds = MakeBox(-4.2, -4.2, -0.2, 4.2, 4.2, 3.2);
+  const mapping::GridGeometry geometry =
+      mapping::GridGeometry::Covering({-4.2, -4.2, -0.2}, {4.2, 4.2, 3.2}, 0.1);
+  Result<mapping::MappingOutput> expected = pipeline->Finish(geometry);
+  ASSERT_TRUE(expected.ok()) << expected.status().ToString();
 
-TEST(PoseMatcherTest, GroundTruthIsInterpolatedAtTheFrameTime) {
-  PoseMatcher matcher(PoseSource::kGroundTruth, 1'000'000'000);
-  uint64_t dropped = 0;
-  EXPECT_TRUE(matcher.AddPose(1'000'000'000, At(1.0), &dropped).empty());
-  // Frame between two samples 5 ms apart: waits for the later one, then gets the interpolation.
-  EXPECT_TRUE(matcher.AddFrame(Frame(1'002'000'000), 0, &dropped).empty());
-  EXPECT_EQ(matcher.pending(), 1u);
-  auto matched = matcher.AddPose(1'005'000'000, At(2.0), &dropped);
-  ASSERT_EQ(matched.size(), 1u);
-  EXPECT_NEAR(matched[0].T_world_body.Translation().x(), 1.4, 1e-9);
-  // Exactly on a sample.
-  matched = matcher.AddFrame(Frame(1'005'000'000), 0, &dropped);
-  ASSERT_EQ(matched.size(), 1u);
-  EXPECT_NEAR(matched[0].T_world_body.Translation().x(), 2.0, 1e-12);
-  // A frame older than the history, or in a gap over 25 ms, has no pose.
-  EXPECT_TRUE(matcher.AddFrame(Frame(900'000'000), 0, &dropped).empty());
-  EXPECT_EQ(dropped, 1u);
-  matcher.AddPose(1'100'000'000, At(3.0), &dropped);
-  EXPECT_TRUE(matcher.AddFrame(Frame(1'050'000'000), 0, &dropped).empty());
-  EXPECT_EQ(dropped, 2u);
-  EXPECT_EQ(matcher.pending(), 0u);
-}
-
-TEST(PoseMatcherTest, LocalizationPosesMatchExactlyAndPendingFramesExpire) {
-  PoseMatcher matcher(PoseSource::kLocalization, 100'000'000);
-  uint64_t dropped = 0;
-  // Frames arrive before the estimator's poses.
-  EXPECT_TRUE(matcher.AddFrame(Frame(50), 0, &dropped).empty());
-  EXPECT_TRUE(matcher.AddFrame(Frame(100), 0, &dropped).empty());
-  auto matched = matcher.AddPose(50, At(5.0), &dropped);
-  ASSERT_EQ(matched.size(), 1u);
-  EXPECT_EQ(matched[0].frame.t_ns, 50);
-  // The estimator skipped frame 100: a newer pose decides it has none.
-  EXPECT_TRUE(matcher.AddPose(150, At(6.0), &dropped).empty());
-  EXPECT_EQ(dropped, 1u);
-  // No pose at all: expires after the wait.
-  EXPECT_TRUE(matcher.AddFrame(Frame(200), 1'000, &dropped).empty());
-  EXPECT_EQ(matcher.Expire(50'000'000), 0u);
-  EXPECT_EQ(matcher.Expire(200'000'000), 1u);
+  for (const v1::MappingMethod method :
+       {v1::MAPPING_METHOD_SPARSE_MESH, v1::MAPPING_METHOD_OCTOMAP}) {
+    v1::BuildMapRequest build;
+    build.set_method(method);
+    build.set_resolution_m(0.1);
+    *build.mutable_bounds() = bounds;
+    const grpc::Status built = Build(build);
+    ASSERT_TRUE(built.ok()) << built.error_message();
+    v1::GetOccupancyRequest occupancy;
+    occupancy.set_method(method);
+    occupancy.set_format(v1::OCCUPANCY_FORMAT_MAVOCC);
+    std::string bytes;
+    ASSERT_TRUE(Occupancy(occupancy, &bytes).ok());
+    Result<dataset::OccupancyGrid> served = dataset::DecodeMavocc(bytes, "GetOccupancy");
+    ASSERT_TRUE(served.ok()) << served.status().ToString();
+    const dataset::OccupancyGrid& truth = method == v1::MAPPING_METHOD_SPARSE_MESH
+                                              ? expected->sparse_mesh_grid
+                                              : expected->octomap_grid;
+    EXPECT_TRUE(served->geometry().SameAs(truth.geometry()));
+    EXPECT_EQ(served->Count(dataset::VoxelState::kOccupied),
+              truth.Count(dataset::VoxelState::kOccupied));
+    EXPECT_GT(truth.Count(dataset::VoxelState::kOccupied), 100);
+    EXPECT_TRUE(served->states() == truth.states()) << v1::MappingMethod_Name(method);
+  }
 }
 
 TEST(MapperTest, LiveFramesWithGroundTruthBecomeKeyframes) {
@@ -757,7 +768,8 @@ TEST(MappingDdsTest, StereoFramesAreCheckedNamingTheField) {
   frame.crc32 ^= 1;
   EXPECT_NE(service_common::CheckStereoFrame(frame).message().find("crc32"), std::string::npos);
   frame.right._length = 11;
-  EXPECT_NE(service_common::CheckStereoFrame(frame).message().find("right: 11 bytes"), std::string::npos);
+  EXPECT_NE(service_common::CheckStereoFrame(frame).message().find("right: 11 bytes"),
+            std::string::npos);
 }
 
 }  // namespace

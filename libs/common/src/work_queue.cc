@@ -92,7 +92,7 @@ Status WorkQueue::Enqueue(std::shared_ptr<internal::TaskBase> task, const std::s
   auto& queue = core_->queue;
   if (queue.size() >= core_->options.capacity) {
     const auto droppable =
-        task->policy == QueuePolicy::kDropOldest
+        task->policy != QueuePolicy::kReject
             ? std::find_if(queue.begin(), queue.end(),
                            [](const auto& t) { return t->policy == QueuePolicy::kDropOldest; })
             : queue.end();
@@ -197,6 +197,7 @@ void WorkQueue::WorkerLoop() {
       continue;
     }
     core.busy = true;
+    task->ran = true;
     lock.unlock();
     const int64_t start_ns = MonotonicNowNs();
     task->Run(TaskContext(&core, task->generation, task->termination));

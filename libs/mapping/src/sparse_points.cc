@@ -17,8 +17,6 @@ namespace {
 using localization::FeatureSet;
 using localization::ImageView;
 
-double MsSince(int64_t start_ns) { return NsToSeconds(MonotonicNowNs() - start_ns) * 1e3; }
-
 // Best feature of class `c` (lowest descriptor SAD to `d`) inside [u0, u1] x [v0, v1]
 // (inclusive), visiting only the grid cells the window overlaps (features are sorted by cell).
 // *second_cost receives the second lowest SAD (uint32 max if there is none).

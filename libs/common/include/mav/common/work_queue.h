@@ -49,7 +49,9 @@ namespace mav {
 
 enum class QueuePolicy {
   kReject,      // a full queue refuses this task
-  kDropOldest,  // a full queue drops its oldest waiting kDropOldest task to make room for this one
+  kDropOldest,  // a full queue drops its oldest waiting kDropOldest task to make room for this
+                // one; this one may be dropped in turn (live sensor data)
+  kMakeRoom,    // as kDropOldest, but this task is never dropped (a build behind live frames)
 };
 
 struct WorkQueueOptions {
@@ -89,6 +91,7 @@ struct QueueCore;
 struct TaskBase {
   enum Phase : int { kQueued = 0, kRunning = 1, kFinished = 2, kWithdrawn = 3 };
   std::atomic<int> phase{kQueued};
+  std::atomic<bool> ran{false};  // the worker called Run
   QueuePolicy policy = QueuePolicy::kReject;
   Termination termination;
   uint64_t generation = 0;
@@ -170,6 +173,8 @@ class Ticket {
   bool accepted() const { return submit_status_.ok(); }
   // The queue was full and the oldest kDropOldest task was dropped for this one.
   bool dropped_oldest() const { return dropped_oldest_; }
+  // The worker ran (or is running) the task: its effects happen whatever Wait returned.
+  bool ran() const { return task_ != nullptr && task_->ran.load(); }
 
   // The task's result. Waits until `termination` stops; then a task that has not started is
   // withdrawn (it never runs) and DEADLINE_EXCEEDED / CANCELLED is returned; for a task already

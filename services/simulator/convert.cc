@@ -89,14 +89,6 @@ void ToProto(const ScenarioInfo& info, v1::ScenarioSummary* out) {
   out->set_image_height(static_cast<uint32_t>(info.height));
 }
 
-void ToProto(const Stats& stats, v1::RuntimeStats* out) {
-  out->set_count(stats.count);
-  out->set_mean_ms(stats.mean_ms);
-  out->set_median_ms(stats.median_ms);
-  out->set_p95_ms(stats.p95_ms);
-  out->set_max_ms(stats.max_ms);
-}
-
 v1::SimulatorState ToProto(PlayerState state) {
   switch (state) {
     case PlayerState::kIdle:

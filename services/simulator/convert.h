@@ -1,5 +1,5 @@
 #pragma once
-// mav.v1 simulator messages <-> the simulator's domain types (playback.h). Validation of request
+// mav.v1 simulator messages <-> the simulator's domain types (player.h). Validation of request
 // fields happens here, with messages that start with the field path ("real_time_factor: ...").
 
 #include <string>
@@ -11,14 +11,14 @@
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
 #include "mav/dataset/types.h"
-#include "services/simulator/playback.h"
+#include "services/simulator/player.h"
 
 namespace mav::simulator_service {
 
 // Which scenario a LoadScenarioRequest asks for.
 struct LoadRequest {
   bool is_preset = false;
-  PresetRequest preset;
+  sim::PresetRequest preset;
   std::string euroc_directory;
 };
 // InvalidArgument "source: ..." when neither preset nor euroc is set. Field values are checked
@@ -31,8 +31,7 @@ Result<Pacing> FromProto(const v1::SimulatorStartRequest& request);
 
 void ToProto(const ScenarioInfo& info, v1::ScenarioSummary* out);
 void ToProto(const PlayerStatus& status, v1::SimulatorStatus* out);
-void ToProto(const Stats& stats, v1::RuntimeStats* out);
-using service_common::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics
+using service_common::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics, RuntimeStats
 void ToProto(const camera::StereoCalibration& calibration, double rate_hz, bool rectified,
              v1::StereoCalibration* out);
 void ToProto(const dataset::ImuNoise& noise, double rate_hz, v1::ImuNoise* out);

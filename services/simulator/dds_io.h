@@ -15,7 +15,7 @@
 #include "mav/dataset/types.h"
 #include "mav/transport/dds.h"
 #include "services/common/dds_codec.h"
-#include "services/simulator/playback.h"
+#include "services/simulator/player.h"
 
 namespace mav::simulator_service {
 

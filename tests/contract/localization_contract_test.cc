@@ -397,10 +397,10 @@ TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
   EXPECT_EQ(status.error_code(), StatusCode::FAILED_PRECONDITION) << status.error_message();
   EXPECT_TRUE(StartsWith(status.error_message(), "calibration.simulator_address:"));
 
-  simulator_service::PresetRequest preset;
+  sim::PresetRequest preset;
   preset.name = "room-easy";
   preset.frames = 5;
-  auto source = simulator_service::OpenPreset(preset);
+  auto source = sim::OpenPreset(preset);
   ASSERT_TRUE(source.ok()) << source.status().ToString();
   simulator.player().Load(std::move(*source));
   v1::LocalizationStatus configured;

@@ -31,7 +31,16 @@ GridGeometry OccupancyGeometry(const World& world, double resolution) {
 }
 
 OccupancyGrid ComputeOccupancy(const World& world, double resolution) {
+  Result<OccupancyGrid> grid = ComputeOccupancy(world, resolution, Termination::Never());
+  MAV_CHECK(grid.ok()) << grid.status().ToString();
+  return std::move(grid).value();
+}
+
+Result<OccupancyGrid> ComputeOccupancy(const World& world, double resolution,
+                                       const Termination& termination) {
   const GridGeometry geometry = OccupancyGeometry(world, resolution);
+  std::string why;
+  if (!geometry.IsValid(&why)) return Status::InvalidArgument("resolution_m: " + why);
   const Eigen::AlignedBox3d b = world.bounds();
   const Eigen::Vector3d& origin = geometry.origin;
   const Eigen::Vector3i& size = geometry.size;
@@ -53,6 +62,7 @@ OccupancyGrid ComputeOccupancy(const World& world, double resolution) {
     }
   }
   for (const Primitive& p : world.primitives()) {
+    MAV_RETURN_IF_ERROR(termination.Check("ground-truth occupancy"));
     if (!p.solid) continue;
     const Eigen::AlignedBox3d pb = p.Bounds();
     Eigen::Vector3i i0, i1;

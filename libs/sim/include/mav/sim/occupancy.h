@@ -4,6 +4,8 @@
 // voxel cube intersects a solid primitive), kFree (inside the world's bounds and touching no
 // solid), kUnknown (outside the world's bounds).
 
+#include "mav/common/status.h"
+#include "mav/common/termination.h"
 #include "mav/dataset/occupancy_grid.h"
 
 namespace mav::sim {
@@ -18,6 +20,10 @@ class World;
 // bounding box (not grid x primitives). MAV_CHECKs resolution > 0 and a valid grid geometry:
 // check OccupancyGeometry(world, resolution).num_voxels() against a limit first on user input.
 dataset::OccupancyGrid ComputeOccupancy(const World& world, double resolution);
+// The same, stopping with DEADLINE_EXCEEDED / CANCELLED when `termination` stops (checked per
+// primitive), and InvalidArgument "resolution_m: ..." for a geometry over the type's voxel cap.
+Result<dataset::OccupancyGrid> ComputeOccupancy(const World& world, double resolution,
+                                                const Termination& termination);
 
 // The geometry ComputeOccupancy would use (no allocation): lets callers refuse a huge request.
 dataset::GridGeometry OccupancyGeometry(const World& world, double resolution);

@@ -1,0 +1,343 @@
+#include "mav/control/autopilot.h"
+
+#include <cmath>
+
+#include "mav/common/time.h"
+
+namespace mav::control {
+
+const char* FlightModeName(FlightMode mode) {
+  switch (mode) {
+    case FlightMode::kDisarmed:
+      return "disarmed";
+    case FlightMode::kHover:
+      return "hover";
+    case FlightMode::kTrajectory:
+      return "trajectory";
+    case FlightMode::kFailsafe:
+      return "failsafe";
+  }
+  return "?";
+}
+
+const char* ControllerTypeName(ControllerType type) {
+  return type == ControllerType::kPaper ? "paper" : "lee";
+}
+
+bool AutopilotOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  auto prefixed = [&](const std::string& prefix, bool ok) {
+    if (!ok && why) *why = prefix + *why;
+    return ok;
+  };
+  std::string inner;
+  std::string* w = why ? why : &inner;
+  if (!prefixed("vehicle.", vehicle.IsValid(w))) return false;
+  if (!prefixed("estimator.", estimator.IsValid(w))) return false;
+  if (!prefixed("paper_gains.", paper_gains.IsValid(w))) return false;
+  if (!prefixed("lee_gains.", lee_gains.IsValid(w))) return false;
+  if (!prefixed("allocation.", allocation.IsValid(w))) return false;
+  if (!prefixed("goto_limits.", goto_limits.IsValid(w))) return false;
+  if (!(max_tilt_rad > 0 && max_tilt_rad < 1.5)) return fail("max_tilt_rad: must be in (0, 1.5)");
+  if (!(imu_timeout_s > 0 && std::isfinite(imu_timeout_s))) {
+    return fail("imu_timeout_s: must be positive");
+  }
+  if (!(pose_timeout_s > 0 && std::isfinite(pose_timeout_s))) {
+    return fail("pose_timeout_s: must be positive");
+  }
+  if (!(failsafe_descent_mps >= 0 && failsafe_descent_mps <= 3)) {
+    return fail("failsafe_descent_mps: must be in [0, 3]");
+  }
+  if (!(max_trajectory_jump_m >= 0 && std::isfinite(max_trajectory_jump_m))) {
+    return fail("max_trajectory_jump_m: must be >= 0");
+  }
+  if (allocation.min_rotor_speed_radps >= vehicle.max_rotor_speed_radps) {
+    return fail("allocation.min_rotor_speed_radps: must be below vehicle.max_rotor_speed_radps");
+  }
+  return true;
+}
+
+Result<Autopilot> Autopilot::Create(const AutopilotOptions& options) {
+  if (std::string why; !options.IsValid(&why)) return Status::InvalidArgument(why);
+  Result<Estimator> estimator = Estimator::Create(options.estimator);
+  if (!estimator.ok()) return estimator.status().WithContext("estimator");
+  return Autopilot(options, std::move(estimator).value());
+}
+
+namespace {
+
+AllocationOptions AllocationFor(const AutopilotOptions& options) {
+  AllocationOptions a = options.allocation;
+  if (options.controller == ControllerType::kLee) a.saturation = SaturationPolicy::kClip;
+  return a;
+}
+
+}  // namespace
+
+Autopilot::Autopilot(const AutopilotOptions& options, Estimator estimator)
+    : options_(options),
+      estimator_(std::move(estimator)),
+      allocator_(options.vehicle, AllocationFor(options)) {
+  if (options.controller == ControllerType::kPaper) {
+    PaperControllerOptions o;
+    o.vehicle = options.vehicle;
+    o.gains = options.paper_gains;
+    o.max_tilt_rad = options.max_tilt_rad;
+    controller_ = std::make_unique<PaperController>(o);
+  } else {
+    LeeControllerOptions o;
+    o.vehicle = options.vehicle;
+    o.gains = options.lee_gains;
+    controller_ = std::make_unique<LeeController>(o);
+  }
+  zero_ = RotorVector::Zero(options.vehicle.rotor_count);
+  command_ = zero_;
+}
+
+Autopilot::Autopilot(Autopilot&&) noexcept = default;
+Autopilot& Autopilot::operator=(Autopilot&&) noexcept = default;
+Autopilot::~Autopilot() = default;
+
+geometry::TrajectoryPoint Autopilot::ReferenceAt(int64_t t_ns) {
+  if (!has_trajectory_) return hold_;
+  const double tau = NsToSeconds(t_ns - trajectory_start_ns_);
+  if (tau >= trajectory_.duration_s()) {
+    // Hover at the end (a planner's spline may end with speed; the hold stops there).
+    geometry::TrajectoryPoint end = trajectory_.Evaluate(trajectory_.duration_s());
+    StartHold(end.position + trajectory_offset_, end.yaw_rad);
+    if (mode_ == FlightMode::kTrajectory) mode_ = FlightMode::kHover;
+    return hold_;
+  }
+  geometry::TrajectoryPoint p = trajectory_.Evaluate(std::max(tau, 0.0));
+  p.position += trajectory_offset_;
+  return p;
+}
+
+void Autopilot::StartHold(const Eigen::Vector3d& position, double yaw_rad) {
+  hold_ = geometry::TrajectoryPoint();
+  hold_.position = position;
+  hold_.yaw_rad = yaw_rad;
+  has_trajectory_ = false;
+}
+
+const RotorVector& Autopilot::FeedImu(const ImuMeasurement& imu) {
+  const int64_t start_ns = MonotonicNowNs();
+  const double dt_s = last_imu_ns_ > 0 ? NsToSeconds(imu.t_ns - last_imu_ns_)
+                                       : 1.0 / options_.estimator.imu_rate_hz;
+  estimator_.FeedImu(imu);
+  now_ns_ = imu.t_ns;
+  last_imu_ns_ = imu.t_ns;
+  if (!armed_) {
+    command_ = zero_;
+    return command_;
+  }
+  const EstimatorState& x = estimator_.state();
+  if (mode_ != FlightMode::kFailsafe &&
+      now_ns_ - last_pose_arrival_ns_ > SecondsToNs(options_.pose_timeout_s)) {
+    mode_ = FlightMode::kFailsafe;
+    ++pose_timeouts_;
+    has_trajectory_ = false;
+  }
+  if (mode_ == FlightMode::kFailsafe) {
+    // Level attitude on the IMU (the estimate dead-reckons), sinking slowly: the reference
+    // follows the estimate so that only the velocity terms act.
+    hold_ = geometry::TrajectoryPoint();
+    hold_.position = x.p_world;
+    hold_.velocity = Eigen::Vector3d(0, 0, -options_.failsafe_descent_mps);
+    hold_.yaw_rad = reference_.yaw_rad;
+    reference_ = hold_;
+  } else {
+    reference_ = ReferenceAt(now_ns_);
+  }
+  const Wrench wrench = controller_->Update(x, reference_, dt_s, saturated_);
+  AllocationResult alloc;
+  command_ = allocator_.Allocate(wrench, &alloc);
+  saturated_ = alloc.thrust_saturated || alloc.roll_pitch_scale < 1.0;
+  if (saturated_) ++saturated_steps_;
+  ++commands_;
+  const Eigen::Vector3d rate_ref =
+      x.q_world_body.conjugate() * Eigen::Vector3d(0, 0, reference_.yaw_rate_radps);
+  sum_position_sq_ += (reference_.position - x.p_world).squaredNorm();
+  sum_rate_sq_ += (x.omega_body - rate_ref).squaredNorm();
+  ++rms_count_;
+  step_ms_.Add(MsSince(start_ns));
+  return command_;
+}
+
+Status Autopilot::FeedPose(const PoseMeasurement& pose) {
+  Status s = estimator_.FeedPose(pose);
+  if (!s.ok()) {
+    ++poses_dropped_;
+    return s;
+  }
+  last_pose_arrival_ns_ = now_ns_;
+  return Status::Ok();
+}
+
+bool Autopilot::CheckImuTimeout(int64_t now_ns, RotorVector* command) {
+  if (!armed_ || now_ns - last_imu_ns_ <= SecondsToNs(options_.imu_timeout_s)) return false;
+  if (mode_ != FlightMode::kFailsafe || options_.imu_loss_policy == ImuLossPolicy::kMotorsOff) {
+    ++imu_timeouts_;
+  }
+  if (options_.imu_loss_policy == ImuLossPolicy::kMotorsOff) {
+    Disarm();
+  } else {
+    mode_ = FlightMode::kFailsafe;
+  }
+  *command = command_;
+  return true;
+}
+
+Status Autopilot::Arm() {
+  if (armed_) return Status::FailedPrecondition("already armed");
+  if (!estimator_.converged()) {
+    return Status::FailedPrecondition("the estimator has not converged (no pose yet, or too few)");
+  }
+  if (now_ns_ - last_pose_arrival_ns_ > SecondsToNs(options_.pose_timeout_s)) {
+    return Status::FailedPrecondition("no fresh pose");
+  }
+  const EstimatorState& x = estimator_.state();
+  const Eigen::Matrix3d R = x.q_world_body.toRotationMatrix();
+  controller_->Reset();
+  StartHold(x.p_world, std::atan2(R(1, 0), R(0, 0)));
+  reference_ = hold_;
+  armed_ = true;
+  mode_ = FlightMode::kHover;
+  saturated_ = false;
+  sum_position_sq_ = sum_rate_sq_ = 0;
+  rms_count_ = 0;
+  return Status::Ok();
+}
+
+void Autopilot::Disarm() {
+  armed_ = false;
+  mode_ = FlightMode::kDisarmed;
+  has_trajectory_ = false;
+  command_ = zero_;
+}
+
+namespace {
+
+Status CheckFlying(bool armed) {
+  return armed ? Status::Ok() : Status::FailedPrecondition("disarmed: Arm first");
+}
+
+}  // namespace
+
+Status Autopilot::HoldPosition(const Eigen::Vector3d& position, double yaw_rad) {
+  MAV_RETURN_IF_ERROR(CheckFlying(armed_));
+  if (!position.allFinite()) return Status::InvalidArgument("position: must be finite");
+  if (!std::isfinite(yaw_rad)) return Status::InvalidArgument("yaw_rad: must be finite");
+  if (mode_ == FlightMode::kFailsafe &&
+      now_ns_ - last_pose_arrival_ns_ > SecondsToNs(options_.pose_timeout_s)) {
+    return Status::FailedPrecondition("failsafe: no fresh pose");
+  }
+  StartHold(position, yaw_rad);
+  mode_ = FlightMode::kHover;
+  return Status::Ok();
+}
+
+Status Autopilot::Hover(const Eigen::Vector3d& position, double yaw_rad, const GoToLimits* limits) {
+  MAV_RETURN_IF_ERROR(CheckFlying(armed_));
+  if (!position.allFinite()) return Status::InvalidArgument("position: must be finite");
+  if (!std::isfinite(yaw_rad)) return Status::InvalidArgument("yaw_rad: must be finite");
+  if (mode_ == FlightMode::kFailsafe) {
+    if (now_ns_ - last_pose_arrival_ns_ > SecondsToNs(options_.pose_timeout_s)) {
+      return Status::FailedPrecondition("failsafe: no fresh pose");
+    }
+    // Start the move from where the vehicle is, at rest.
+    reference_ = geometry::TrajectoryPoint();
+    reference_.position = estimator_.state().p_world;
+    reference_.yaw_rad = hold_.yaw_rad;
+  }
+  MAV_ASSIGN_OR_RETURN(
+      geometry::PolynomialTrajectory move,
+      MakeGoToTrajectory(reference_, position, yaw_rad, limits ? *limits : options_.goto_limits));
+  trajectory_ = std::move(move);
+  trajectory_start_ns_ = now_ns_;
+  trajectory_offset_.setZero();
+  has_trajectory_ = true;
+  mode_ = FlightMode::kHover;
+  return Status::Ok();
+}
+
+Status Autopilot::SetTrajectory(const geometry::PolynomialTrajectory& trajectory,
+                                int64_t start_t_ns, const Eigen::Vector3d& offset,
+                                bool allow_jump) {
+  MAV_RETURN_IF_ERROR(CheckFlying(armed_));
+  if (trajectory.empty()) return Status::InvalidArgument("trajectory: no segments");
+  if (!offset.allFinite()) return Status::InvalidArgument("offset: must be finite");
+  if (mode_ == FlightMode::kFailsafe &&
+      now_ns_ - last_pose_arrival_ns_ > SecondsToNs(options_.pose_timeout_s)) {
+    return Status::FailedPrecondition("failsafe: no fresh pose");
+  }
+  const Eigen::Vector3d start = trajectory.Evaluate(0).position + offset;
+  const double jump = (start - reference_.position).norm();
+  if (!allow_jump && jump > options_.max_trajectory_jump_m) {
+    return Status::InvalidArgument("trajectory: starts " + std::to_string(jump) +
+                                   " m from the current reference (allow_jump to accept)");
+  }
+  trajectory_ = trajectory;
+  trajectory_start_ns_ = start_t_ns == 0 ? now_ns_ : start_t_ns;
+  trajectory_offset_ = offset;
+  has_trajectory_ = true;
+  mode_ = FlightMode::kTrajectory;
+  return Status::Ok();
+}
+
+Status Autopilot::SetPaperGains(const PaperControllerGains& gains) {
+  if (std::string why; !gains.IsValid(&why)) return Status::InvalidArgument(why);
+  options_.paper_gains = gains;
+  if (auto* c = dynamic_cast<PaperController*>(controller_.get())) c->SetGains(gains);
+  return Status::Ok();
+}
+
+Status Autopilot::SetLeeGains(const LeeControllerGains& gains) {
+  if (std::string why; !gains.IsValid(&why)) return Status::InvalidArgument(why);
+  options_.lee_gains = gains;
+  if (auto* c = dynamic_cast<LeeController*>(controller_.get())) c->SetGains(gains);
+  return Status::Ok();
+}
+
+AutopilotStatus Autopilot::status() const {
+  AutopilotStatus s;
+  s.mode = mode_;
+  s.armed = armed_;
+  s.estimator_converged = estimator_.converged();
+  const EstimatorCounters& c = estimator_.counters();
+  s.imu_samples = c.imu_samples;
+  s.poses = c.poses_merged;
+  s.poses_dropped = poses_dropped_;
+  s.commands = commands_;
+  s.saturated_steps = saturated_steps_;
+  s.imu_timeouts = imu_timeouts_;
+  s.pose_timeouts = pose_timeouts_;
+  if (rms_count_ > 0) {
+    s.position_rms_m = std::sqrt(sum_position_sq_ / rms_count_);
+    s.angular_rate_rms_radps = std::sqrt(sum_rate_sq_ / rms_count_);
+  }
+  s.step_ms = step_ms_.Summary();
+  return s;
+}
+
+AutopilotState Autopilot::state() const {
+  AutopilotState s;
+  s.mode = mode_;
+  s.estimate = estimator_.state();
+  s.estimator_converged = estimator_.converged();
+  s.reference = reference_;
+  s.position_error = reference_.position - s.estimate.p_world;
+  s.velocity_error = reference_.velocity - s.estimate.v_world;
+  s.integral = controller_->integral_acceleration();
+  s.rotor_speeds = command_;
+  if (has_trajectory_) {
+    s.trajectory_t_s = NsToSeconds(now_ns_ - trajectory_start_ns_);
+    s.trajectory_duration_s = trajectory_.duration_s();
+  }
+  return s;
+}
+
+}  // namespace mav::control

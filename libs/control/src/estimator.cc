@@ -1,0 +1,203 @@
+#include "mav/control/estimator.h"
+
+#include <cmath>
+
+#include "mav/common/time.h"
+
+namespace mav::control {
+
+using geometry::ExpSO3;
+using geometry::LogSO3;
+
+bool EstimatorOptions::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (!(buffer_s > 0 && buffer_s <= 10)) return fail("buffer_s: must be in (0, 10]");
+  if (!(converge_s >= 0 && std::isfinite(converge_s))) return fail("converge_s: must be >= 0");
+  for (size_t i = 0; i < sources.size(); ++i) {
+    const Eigen::Vector3d t = sources[i].T_body_sensor.Translation();
+    if (!t.allFinite() || !sources[i].T_body_sensor.Rotation().coeffs().allFinite()) {
+      return fail("sources[" + std::to_string(i) + "].T_body_sensor: must be finite");
+    }
+  }
+  if (weights_override) {
+    const CorrectionWeights& w = *weights_override;
+    if (!(w.position > 0 && w.position <= 1)) return fail("weights_override.position: (0, 1]");
+    if (!(w.orientation > 0 && w.orientation <= 1)) {
+      return fail("weights_override.orientation: (0, 1]");
+    }
+    if (!(std::isfinite(w.velocity) && std::isfinite(w.accel_offset) &&
+          std::isfinite(w.gyro_offset))) {
+      return fail("weights_override: must be finite");
+    }
+  }
+  return ToWeightModel().IsValid(why);
+}
+
+WeightModel EstimatorOptions::ToWeightModel() const {
+  WeightModel m;
+  m.imu_rate_hz = imu_rate_hz;
+  m.accel_noise_sigma = accel_noise_sigma;
+  m.gyro_noise_sigma = gyro_noise_sigma;
+  m.accel_offset_random_walk = accel_offset_random_walk;
+  m.gyro_offset_random_walk = gyro_offset_random_walk;
+  m.initial_velocity_sigma = initial_velocity_sigma;
+  m.initial_accel_offset_sigma = initial_accel_offset_sigma;
+  m.initial_gyro_offset_sigma = initial_gyro_offset_sigma;
+  m.sources.clear();
+  for (const PoseSourceOptions& s : sources) {
+    m.sources.push_back({s.rate_hz, s.position_sigma_m, s.orientation_sigma_rad});
+  }
+  return m;
+}
+
+Result<Estimator> Estimator::Create(const EstimatorOptions& options) {
+  if (std::string why; !options.IsValid(&why)) return Status::InvalidArgument(why);
+  MAV_ASSIGN_OR_RETURN(WeightSchedule weights, ComputeWeightSchedule(options.ToWeightModel()));
+  return Estimator(options, std::move(weights));
+}
+
+Estimator::Estimator(const EstimatorOptions& options, WeightSchedule weights)
+    : options_(options), weights_(std::move(weights)) {
+  // Room for the buffer at up to twice the nominal rate.
+  const size_t capacity =
+      static_cast<size_t>(std::ceil(2.0 * options.buffer_s * options.imu_rate_hz)) + 4;
+  ring_.resize(capacity);
+  updates_per_source_.assign(options.sources.size(), 0);
+}
+
+void Estimator::Reset() {
+  head_ = size_ = 0;
+  initialized_ = false;
+  current_ = EstimatorState();
+  counters_ = EstimatorCounters();
+  updates_per_source_.assign(options_.sources.size(), 0);
+}
+
+bool Estimator::converged() const {
+  return initialized_ && current_.t_ns - init_t_ns_ >= SecondsToNs(options_.converge_s);
+}
+
+void Estimator::Propagate(const ImuMeasurement& imu, double dt_s, EstimatorState* x) const {
+  const Eigen::Vector3d omega = imu.gyro - x->gyro_offset;
+  const Eigen::Vector3d a =
+      x->q_world_body * (imu.accel - x->accel_offset) - Eigen::Vector3d(0, 0, kGravity);
+  x->p_world += dt_s * x->v_world;
+  x->v_world += dt_s * a;
+  x->q_world_body = (x->q_world_body * ExpSO3(dt_s * omega)).normalized();
+  x->omega_body = omega;
+  x->a_world = a;
+}
+
+void Estimator::FeedImu(const ImuMeasurement& imu) {
+  ++counters_.imu_samples;
+  if (size_ > 0 && imu.t_ns <= At(size_ - 1).imu.t_ns) return;  // out of order: ignored
+  const int64_t t_prev = size_ > 0 ? At(size_ - 1).imu.t_ns : imu.t_ns;
+  // Drop entries older than the buffer span (and make room).
+  const int64_t keep_ns = SecondsToNs(options_.buffer_s);
+  while (size_ > 0 &&
+         (imu.t_ns - At(0).imu.t_ns > keep_ns || size_ >= static_cast<int>(ring_.size()))) {
+    head_ = (head_ + 1) % static_cast<int>(ring_.size());
+    --size_;
+  }
+  EstimatorState x = current_;
+  if (initialized_) Propagate(imu, NsToSeconds(imu.t_ns - t_prev), &x);
+  x.t_ns = imu.t_ns;
+  Entry& e = At(size_);
+  ++size_;
+  e.imu = imu;
+  e.state = x;
+  current_ = x;
+}
+
+void Estimator::Correct(const PoseMeasurement& pose, EstimatorState* x) {
+  const PoseSourceOptions& src = options_.sources[pose.source];
+  const uint64_t k = updates_per_source_[pose.source]++;
+  CorrectionWeights w;
+  if (options_.weights_override) {
+    w = *options_.weights_override;
+  } else {
+    const auto& transient = weights_.transient[pose.source];
+    w = options_.transient_weights && k < transient.size() ? transient[k]
+                                                           : weights_.steady[pose.source];
+  }
+  const Eigen::Quaterniond q_meas =
+      pose.T_world_sensor.Rotation() * src.T_body_sensor.Rotation().conjugate();
+  const Eigen::Vector3d r_p = pose.T_world_sensor.Translation() -
+                              (x->p_world + x->q_world_body * src.T_body_sensor.Translation());
+  const Eigen::Vector3d r_q = LogSO3(x->q_world_body.conjugate() * q_meas);
+  x->p_world += w.position * r_p;
+  x->v_world += w.velocity * r_p;
+  x->q_world_body = (x->q_world_body * ExpSO3(w.orientation * r_q)).normalized();
+  if (options_.estimate_offsets) {
+    x->accel_offset += x->q_world_body.conjugate() * (w.accel_offset * r_p);
+    x->gyro_offset += w.gyro_offset * r_q;
+  }
+  counters_.last_position_residual = r_p;
+}
+
+Status Estimator::FeedPose(const PoseMeasurement& pose) {
+  if (pose.source < 0 || pose.source >= static_cast<int>(options_.sources.size())) {
+    return Status::InvalidArgument("source: unknown pose source " + std::to_string(pose.source));
+  }
+  if (size_ == 0 || pose.t_ns < At(0).imu.t_ns || (initialized_ && pose.t_ns < init_t_ns_)) {
+    ++counters_.poses_dropped;
+    return Status::OutOfRange("pose stamp older than the IMU buffer (or no IMU yet)");
+  }
+  // The last buffered sample at or before the stamp (binary search over the ring).
+  int lo = 0, hi = size_ - 1;
+  while (lo < hi) {
+    const int mid = (lo + hi + 1) / 2;
+    if (At(mid).imu.t_ns <= pose.t_ns) {
+      lo = mid;
+    } else {
+      hi = mid - 1;
+    }
+  }
+  const int j = lo;
+  EstimatorState x = At(j).state;
+  int64_t t_x = At(j).imu.t_ns;
+  if (!initialized_) {
+    const PoseSourceOptions& src = options_.sources[pose.source];
+    const geometry::SE3 T_world_body = pose.T_world_sensor * src.T_body_sensor.Inverse();
+    x = EstimatorState();
+    x.p_world = T_world_body.Translation();
+    x.q_world_body = T_world_body.Rotation();
+    initialized_ = true;
+    init_t_ns_ = pose.t_ns;
+    ++updates_per_source_[pose.source];
+  } else {
+    // Bring the estimate from the sample before the stamp to the stamp itself (a pose stamped
+    // between IMU samples), with the following sample's reading.
+    if (pose.t_ns > t_x && j + 1 < size_) {
+      Propagate(At(j + 1).imu, NsToSeconds(pose.t_ns - t_x), &x);
+      t_x = pose.t_ns;
+    }
+    Correct(pose, &x);
+  }
+  // Re-apply the IMU after the stamp.
+  for (int k = j + 1; k < size_; ++k) {
+    Entry& e = At(k);
+    Propagate(e.imu, NsToSeconds(e.imu.t_ns - t_x), &x);
+    t_x = e.imu.t_ns;
+    x.t_ns = t_x;
+    e.state = x;
+  }
+  if (j + 1 >= size_) {
+    x.t_ns = At(size_ - 1).imu.t_ns;
+    At(size_ - 1).state = x;
+  }
+  // Keep the latest sample's rates in the output (a correction before the last sample re-ran
+  // Propagate, which set them; the initialisation at the newest sample leaves them unset).
+  if (j + 1 >= size_) {
+    x.omega_body = At(size_ - 1).imu.gyro - x.gyro_offset;
+  }
+  current_ = x;
+  ++counters_.poses_merged;
+  counters_.last_pose_t_ns = pose.t_ns;
+  return Status::Ok();
+}
+
+}  // namespace mav::control

@@ -54,6 +54,12 @@ bool AutopilotOptions::IsValid(std::string* why) const {
   if (!(max_trajectory_jump_m >= 0 && std::isfinite(max_trajectory_jump_m))) {
     return fail("max_trajectory_jump_m: must be >= 0");
   }
+  if (!(disturbance_observer_s >= 0 && disturbance_observer_s <= 5)) {
+    return fail("disturbance_observer_s: must be in [0, 5] (0 = off)");
+  }
+  if (!(correction_blend_s >= 0 && correction_blend_s <= 5)) {
+    return fail("correction_blend_s: must be in [0, 5] (0 = off)");
+  }
   if (allocation.min_rotor_speed_radps >= vehicle.max_rotor_speed_radps) {
     return fail("allocation.min_rotor_speed_radps: must be below vehicle.max_rotor_speed_radps");
   }
@@ -95,6 +101,7 @@ Autopilot::Autopilot(const AutopilotOptions& options, Estimator estimator)
   }
   zero_ = RotorVector::Zero(options.vehicle.rotor_count);
   command_ = zero_;
+  motor_model_ = zero_;
 }
 
 Autopilot::Autopilot(Autopilot&&) noexcept = default;
@@ -123,6 +130,36 @@ void Autopilot::StartHold(const Eigen::Vector3d& position, double yaw_rad) {
   has_trajectory_ = false;
 }
 
+namespace {
+
+// exp(-dt / tau), 0 for tau = 0 (no memory).
+double Decay(double dt_s, double tau_s) { return tau_s > 0 ? std::exp(-dt_s / tau_s) : 0.0; }
+
+}  // namespace
+
+void Autopilot::UpdateDisturbance(const EstimatorState& x, double dt_s) {
+  // The thrust the rotors produce now: the commands so far through the motors' lag.
+  const VehicleParameters& veh = options_.vehicle;
+  double thrust = 0;
+  for (int i = 0; i < veh.rotor_count; ++i) {
+    const double tau = command_[i] >= motor_model_[i] ? veh.motor_time_constant_up_s
+                                                      : veh.motor_time_constant_down_s;
+    motor_model_[i] = command_[i] + (motor_model_[i] - command_[i]) * Decay(dt_s, tau);
+    thrust += veh.thrust_constant * motor_model_[i] * motor_model_[i];
+  }
+  const bool airborne = armed_ && x.p_world.z() > arm_z_ + 0.15;
+  if (options_.disturbance_observer_s <= 0 || !airborne) {
+    disturbance_.setZero();
+    return;
+  }
+  const Eigen::Vector3d a_model = x.q_world_body * Eigen::Vector3d(0, 0, thrust / veh.mass_kg) -
+                                  Eigen::Vector3d(0, 0, kGravity);
+  const double f = Decay(dt_s, options_.disturbance_observer_s);
+  disturbance_ = f * disturbance_ + (1 - f) * (x.a_world - a_model);
+  constexpr double kMaxDisturbance = 8.0;  // m/s^2: beyond, the model is wrong, not the wind
+  if (disturbance_.norm() > kMaxDisturbance) disturbance_ *= kMaxDisturbance / disturbance_.norm();
+}
+
 const RotorVector& Autopilot::FeedImu(const ImuMeasurement& imu) {
   const int64_t start_ns = MonotonicNowNs();
   const double dt_s = last_imu_ns_ > 0 ? NsToSeconds(imu.t_ns - last_imu_ns_)
@@ -130,11 +167,20 @@ const RotorVector& Autopilot::FeedImu(const ImuMeasurement& imu) {
   estimator_.FeedImu(imu);
   now_ns_ = imu.t_ns;
   last_imu_ns_ = imu.t_ns;
+  // The controller's view: the estimate with the recent corrections still being blended in.
+  const double blend = Decay(dt_s, options_.correction_blend_s);
+  blend_p_ *= blend;
+  blend_v_ *= blend;
+  blend_q_ *= blend;
+  EstimatorState x = estimator_.state();
+  x.p_world += blend_p_;
+  x.v_world += blend_v_;
+  x.q_world_body = (x.q_world_body * geometry::ExpSO3(blend_q_)).normalized();
+  UpdateDisturbance(x, dt_s);
   if (!armed_) {
     command_ = zero_;
     return command_;
   }
-  const EstimatorState& x = estimator_.state();
   if (mode_ != FlightMode::kFailsafe &&
       now_ns_ - last_pose_arrival_ns_ > SecondsToNs(options_.pose_timeout_s)) {
     mode_ = FlightMode::kFailsafe;
@@ -152,6 +198,7 @@ const RotorVector& Autopilot::FeedImu(const ImuMeasurement& imu) {
   } else {
     reference_ = ReferenceAt(now_ns_);
   }
+  controller_->SetDisturbance(disturbance_);
   const Wrench wrench = controller_->Update(x, reference_, dt_s, saturated_);
   AllocationResult alloc;
   command_ = allocator_.Allocate(wrench, &alloc);
@@ -168,10 +215,19 @@ const RotorVector& Autopilot::FeedImu(const ImuMeasurement& imu) {
 }
 
 Status Autopilot::FeedPose(const PoseMeasurement& pose) {
+  const bool was_initialized = estimator_.initialized();
+  const EstimatorState before = estimator_.state();
   Status s = estimator_.FeedPose(pose);
   if (!s.ok()) {
     ++poses_dropped_;
     return s;
+  }
+  if (was_initialized && options_.correction_blend_s > 0) {
+    // Keep the controller's view continuous: the jump is blended in over correction_blend_s.
+    const EstimatorState& after = estimator_.state();
+    blend_p_ -= after.p_world - before.p_world;
+    blend_v_ -= after.v_world - before.v_world;
+    blend_q_ -= geometry::LogSO3(before.q_world_body.conjugate() * after.q_world_body);
   }
   last_pose_arrival_ns_ = now_ns_;
   return Status::Ok();
@@ -202,6 +258,8 @@ Status Autopilot::Arm() {
   const EstimatorState& x = estimator_.state();
   const Eigen::Matrix3d R = x.q_world_body.toRotationMatrix();
   controller_->Reset();
+  arm_z_ = x.p_world.z();
+  disturbance_.setZero();
   StartHold(x.p_world, std::atan2(R(1, 0), R(0, 0)));
   reference_ = hold_;
   armed_ = true;
@@ -332,6 +390,7 @@ AutopilotState Autopilot::state() const {
   s.position_error = reference_.position - s.estimate.p_world;
   s.velocity_error = reference_.velocity - s.estimate.v_world;
   s.integral = controller_->integral_acceleration();
+  s.disturbance = disturbance_;
   s.rotor_speeds = command_;
   if (has_trajectory_) {
     s.trajectory_t_s = NsToSeconds(now_ns_ - trajectory_start_ns_);

@@ -24,13 +24,14 @@ bool EstimatorOptions::IsValid(std::string* why) const {
   }
   if (weights_override) {
     const CorrectionWeights& w = *weights_override;
-    if (!(w.position > 0 && w.position <= 1)) return fail("weights_override.position: (0, 1]");
-    if (!(w.orientation > 0 && w.orientation <= 1)) {
-      return fail("weights_override.orientation: (0, 1]");
-    }
-    if (!(std::isfinite(w.velocity) && std::isfinite(w.accel_offset) &&
-          std::isfinite(w.gyro_offset))) {
+    if (!w.horizontal.allFinite() || !w.vertical.allFinite() || !w.heading.allFinite()) {
       return fail("weights_override: must be finite");
+    }
+    if (!(w.position() > 0 && w.position() <= 1)) {
+      return fail("weights_override.position: must be in (0, 1]");
+    }
+    if (!(w.orientation() > 0 && w.orientation() <= 1)) {
+      return fail("weights_override.orientation: must be in (0, 1]");
     }
   }
   return ToWeightModel().IsValid(why);
@@ -46,6 +47,7 @@ WeightModel EstimatorOptions::ToWeightModel() const {
   m.initial_velocity_sigma = initial_velocity_sigma;
   m.initial_accel_offset_sigma = initial_accel_offset_sigma;
   m.initial_gyro_offset_sigma = initial_gyro_offset_sigma;
+  m.couple_tilt = couple_tilt;
   m.sources.clear();
   for (const PoseSourceOptions& s : sources) {
     m.sources.push_back({s.rate_hz, s.position_sigma_m, s.orientation_sigma_rad});
@@ -84,7 +86,9 @@ void Estimator::Propagate(const ImuMeasurement& imu, double dt_s, EstimatorState
   const Eigen::Vector3d omega = imu.gyro - x->gyro_offset;
   const Eigen::Vector3d a =
       x->q_world_body * (imu.accel - x->accel_offset) - Eigen::Vector3d(0, 0, kGravity);
-  x->p_world += dt_s * x->v_world;
+  // Position with the second-order term of the constant-acceleration step (the velocity step
+  // is Euler's); it removes most of the discretisation error of a moving body at no cost.
+  x->p_world += dt_s * x->v_world + 0.5 * dt_s * dt_s * a;
   x->v_world += dt_s * a;
   x->q_world_body = (x->q_world_body * ExpSO3(dt_s * omega)).normalized();
   x->omega_body = omega;
@@ -127,13 +131,26 @@ void Estimator::Correct(const PoseMeasurement& pose, EstimatorState* x) {
       pose.T_world_sensor.Rotation() * src.T_body_sensor.Rotation().conjugate();
   const Eigen::Vector3d r_p = pose.T_world_sensor.Translation() -
                               (x->p_world + x->q_world_body * src.T_body_sensor.Translation());
-  const Eigen::Vector3d r_q = LogSO3(x->q_world_body.conjugate() * q_meas);
-  x->p_world += w.position * r_p;
-  x->v_world += w.velocity * r_p;
-  x->q_world_body = (x->q_world_body * ExpSO3(w.orientation * r_q)).normalized();
+  // The rotation residual in the world frame: q_meas = Exp(r_t) q.
+  const Eigen::Vector3d r_t = LogSO3(q_meas * x->q_world_body.conjugate());
+  Eigen::Vector3d dp, dv, db_a, dtheta, db_g;
+  // x pairs with the tilt theta_y, y with -theta_x (a tilt about y pushes the thrust along +x).
+  const Eigen::Matrix<double, 5, 1> cx = w.horizontal * Eigen::Vector2d(r_p.x(), r_t.y());
+  const Eigen::Matrix<double, 5, 1> cy = w.horizontal * Eigen::Vector2d(r_p.y(), -r_t.x());
+  const Eigen::Vector3d cz = w.vertical * r_p.z();
+  const Eigen::Vector2d cpsi = w.heading * r_t.z();
+  dp << cx[0], cy[0], cz[0];
+  dv << cx[1], cy[1], cz[1];
+  db_a << cx[2], cy[2], cz[2];
+  dtheta << -cy[3], cx[3], cpsi[0];
+  db_g << -cy[4], cx[4], cpsi[1];
+  x->p_world += dp;
+  x->v_world += dv;
+  x->q_world_body = (ExpSO3(dtheta) * x->q_world_body).normalized();
   if (options_.estimate_offsets) {
-    x->accel_offset += x->q_world_body.conjugate() * (w.accel_offset * r_p);
-    x->gyro_offset += w.gyro_offset * r_q;
+    // The offsets are subtracted from the body-frame readings; the model's are world-frame.
+    x->accel_offset += x->q_world_body.conjugate() * db_a;
+    x->gyro_offset += x->q_world_body.conjugate() * db_g;
   }
   counters_.last_position_residual = r_p;
 }

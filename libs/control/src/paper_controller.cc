@@ -92,7 +92,10 @@ PaperController::PaperController(const PaperControllerOptions& options) : option
   MAV_CHECK(options.IsValid(&why)) << why;
 }
 
-void PaperController::Reset() { integral_.setZero(); }
+void PaperController::Reset() {
+  integral_.setZero();
+  disturbance_.setZero();
+}
 
 Eigen::Vector3d PaperController::integral_acceleration() const {
   return options_.gains.integral_gain.cwiseProduct(integral_);
@@ -136,8 +139,8 @@ Wrench PaperController::Update(const EstimatorState& x, const TrajectoryPoint& r
     const double lim = g.integral_limit_mps2 / ki[a];
     integral_[a] = std::clamp(integral_[a], -lim, lim);
   }
-  Eigen::Vector3d a_c =
-      ref.acceleration + k1.cwiseProduct(de) + k0.cwiseProduct(e) + ki.cwiseProduct(integral_);
+  Eigen::Vector3d a_c = ref.acceleration + k1.cwiseProduct(de) + k0.cwiseProduct(e) +
+                        ki.cwiseProduct(integral_) - disturbance_;
   // Bound the tilt the command implies (and never ask for less than 20 % of gravity upward).
   a_c.z() = std::max(a_c.z(), -0.8 * kGravity);
   const double horizontal = a_c.head<2>().norm();

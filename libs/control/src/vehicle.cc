@@ -36,6 +36,9 @@ bool VehicleParameters::IsValid(std::string* why) const {
   if (!(max_rotor_speed_radps > 0 && std::isfinite(max_rotor_speed_radps))) {
     return fail("max_rotor_speed_radps: must be positive");
   }
+  if (!(motor_time_constant_up_s >= 0 && motor_time_constant_down_s >= 0)) {
+    return fail("motor_time_constant_up_s/down_s: must be >= 0");
+  }
   const Eigen::MatrixXd a = Mixer();
   if (Eigen::FullPivLU<Eigen::MatrixXd>(a).rank() < 4) {
     return fail("rotor_angles_deg/rotor_directions: the rotors cannot produce every wrench");

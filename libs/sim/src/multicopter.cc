@@ -67,6 +67,13 @@ void Multicopter::Reset(const Eigen::Vector3d& p_world, double yaw_rad, bool on_
   command_ = RotorVector::Zero(params_.rotor_count);
 }
 
+void Multicopter::SetState(const MulticopterState& state) {
+  MAV_CHECK(state.rotor_speeds_radps.size() == params_.rotor_count)
+      << "state has " << state.rotor_speeds_radps.size() << " rotor speeds";
+  state_ = state;
+  state_.q_world_body.normalize();
+}
+
 Eigen::Vector3d Multicopter::BodyForce(const MulticopterState& x) const {
   double thrust = 0, speed_sum = 0;
   for (int i = 0; i < params_.rotor_count; ++i) {

@@ -60,6 +60,15 @@ struct AutopilotOptions {
   // SetTrajectory refuses a start farther than this from the current reference unless
   // allow_jump.
   double max_trajectory_jump_m = 1.0;
+  // Our additions to the paper's loop (0 = off, the paper's pure PI controller):
+  // the time constant of the disturbance observer that feeds the unmodelled acceleration
+  // (accelerometer minus the thrust model through the motor lag) forward to the paper
+  // controller; active once the vehicle is airborne (0.15 m above where it armed).
+  double disturbance_observer_s = 0.15;
+  // The controller sees the estimate with each pose correction blended in over this time
+  // constant instead of as a step (the estimator itself stays the optimal filter): the steps
+  // would otherwise excite body rates every 100 ms.
+  double correction_blend_s = 0.2;
 
   bool IsValid(std::string* why) const;
 };
@@ -88,8 +97,9 @@ struct AutopilotState {
   geometry::TrajectoryPoint reference;
   Eigen::Vector3d position_error = Eigen::Vector3d::Zero();  // reference - estimate, world
   Eigen::Vector3d velocity_error = Eigen::Vector3d::Zero();
-  Eigen::Vector3d integral = Eigen::Vector3d::Zero();  // integral acceleration, m/s^2
-  RotorVector rotor_speeds;                            // the last command
+  Eigen::Vector3d integral = Eigen::Vector3d::Zero();     // integral acceleration, m/s^2
+  Eigen::Vector3d disturbance = Eigen::Vector3d::Zero();  // observer's acceleration, m/s^2
+  RotorVector rotor_speeds;                               // the last command
   double trajectory_t_s = 0;
   double trajectory_duration_s = 0;
 };
@@ -143,6 +153,7 @@ class Autopilot {
   Autopilot(const AutopilotOptions& options, Estimator estimator);
   geometry::TrajectoryPoint ReferenceAt(int64_t t_ns);
   void StartHold(const Eigen::Vector3d& position, double yaw_rad);
+  void UpdateDisturbance(const EstimatorState& x, double dt_s);
 
   AutopilotOptions options_;
   Estimator estimator_;
@@ -170,6 +181,12 @@ class Autopilot {
   double sum_position_sq_ = 0, sum_rate_sq_ = 0;
   uint64_t rms_count_ = 0;
   RuntimeWindow step_ms_{1000};
+  // Disturbance observer and correction blending (see the options).
+  RotorVector motor_model_;
+  Eigen::Vector3d disturbance_ = Eigen::Vector3d::Zero();
+  double arm_z_ = 0;
+  Eigen::Vector3d blend_p_ = Eigen::Vector3d::Zero(), blend_v_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d blend_q_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace mav::control

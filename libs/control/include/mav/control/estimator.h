@@ -4,14 +4,18 @@
 // orthogonal group", IEEE TAC 53(5), 2008, with delayed poses merged by re-application:
 //
 //  * prediction (every IMU sample, Euler steps of the IMU period h):
-//      w = gyro - b_g,  a = R (accel - b_a) + g,  p += h v,  v += h a,  q = q Exp(h w);
+//      w = gyro - b_g,  a = R (accel - b_a) + g,  p += h v + h^2 a / 2,  v += h a,
+//      q = q Exp(h w);
 //  * correction (a pose of source s stamped t_s arrives late): the buffered estimate at t_s is
-//    corrected with the a-priori weights (estimator_weights.h):
-//      r_p = p_meas - (p + R t_bs),  r_q = Log(q^-1 q_meas)          (q_meas = q_ws q_bs^-1)
-//      p += k_p r_p,  v += k_v r_p,  b_a += R^T k_ba r_p,  q = q Exp(k_q r_q),  b_g += k_bg r_q,
-//    i.e. the orientation turns part way (k_q) about the relative rotation axis; then every
-//    buffered IMU sample after t_s is re-applied, which gives the estimate a filter fed on time
-//    would have (T_body_sensor = (q_bs, t_bs) is the pose sensor's mounting);
+//    corrected with the a-priori weights K (estimator_weights.h):
+//      r_p = p_meas - (p + R t_bs),  r_t = Log(q_meas q^-1)           (q_meas = q_ws q_bs^-1)
+//      [dp, dv, db_a, dtheta, db_g] = K [r_p, r_t],  p += dp, v += dv, q = Exp(dtheta) q,
+//      b_a += R^T db_a, b_g += R^T db_g,
+//    i.e. the orientation turns part way about the relative rotation axis (the paper's
+//    decoupled weights when EstimatorOptions::couple_tilt is false; by default the tilt's
+//    coupling with the horizontal position is kept); then every buffered IMU sample after t_s is
+//    re-applied, which gives the estimate a filter fed on time would have (T_body_sensor =
+//    (q_bs, t_bs) is the pose sensor's mounting);
 //  * several pose sources (EstimatorOptions::sources), each with its rate, noise and mounting.
 //
 // Fed synchronously, as OpenVINS' VioManager: FeedImu / FeedPose in arrival order; no threads,
@@ -61,6 +65,9 @@ struct EstimatorOptions {
   bool estimate_offsets = true;
   // false: the steady-state weights from the first pose on (slow offset learning).
   bool transient_weights = true;
+  // false: the paper's decoupled weights (see estimator_weights.h); true: the tilt's coupling of
+  // orientation and horizontal position is kept in the model.
+  bool couple_tilt = true;
   // Explicit weights for every source instead of the computed ones.
   std::optional<CorrectionWeights> weights_override;
   // The estimate counts as converged this long after the first pose (the transient gains

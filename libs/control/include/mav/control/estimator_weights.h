@@ -3,37 +3,47 @@
 // configured noise (Holzmann et al. 2015, Sec. 3: "the corresponding weights are established a
 // priori as the steady-state solution of an Extended Kalman Filter simulation").
 //
-// Model (per world axis, linearised at hover, the axes and the translational / rotational parts
-// decoupled: the coupling of tilt errors into horizontal acceleration is neglected):
-//   translation  x = [p, v, b_a]:  p+ = p + h v,  v+ = v + h (a_meas - b_a) + h n_a,
-//                b_a+ = b_a + sqrt(h) w_a;                             measured: p (sigma_p)
-//   rotation     x = [theta, b_g]: theta+ = theta + h (w_meas - b_g) + h n_g,
-//                b_g+ = b_g + sqrt(h) w_g;                             measured: theta (sigma_q)
-// with h the IMU period, n_a, n_g the IMU white noise (sigma per sample) and w_a, w_g the
-// offsets' random-walk densities. Pose sources update at their own rates; the covariance is
-// iterated through the periodic schedule (IMU steps, updates at each source's sample times) —
-// the discrete Riccati recursion — until the gains repeat to 1e-12 from one period of the
-// schedule to the next. A source's steady-state weights are the mean of its gains over one
-// period (they are all equal with a single source). Starting from the initial covariance, the
-// gains of the first updates form the transient schedule, so that the offsets are learnt in
-// seconds rather than in the minutes the steady state would take. The pose delay does not enter:
-// the estimator merges each pose at its stamp and re-applies the IMU, which is the on-time filter.
+// Model: the error dynamics of the EKF linearised at hover, per world axis (h the IMU period,
+// n_a, n_g the IMU white noise per sample, w_a, w_g the offsets' random-walk densities):
+//   horizontal (x with the tilt theta = theta_y, y with theta = -theta_x), x = [p, v, b_a, theta,
+//   b_g]:  p+ = p + h v,  v+ = v + h (g theta - b_a) + h n_a,  b_a+ = b_a + sqrt(h) w_a,
+//          theta+ = theta - h b_g + h n_g,  b_g+ = b_g + sqrt(h) w_g;   measured p and theta;
+//   vertical x = [p, v, b_a] (no tilt term);   measured p;
+//   heading  x = [psi, b_g];                    measured psi.
+// The tilt term is what couples position and orientation at hover: an orientation error tilts
+// the integrated specific force by g theta, so the position residuals also correct the tilt and
+// vice versa (the decoupled filter, with that coupling dropped, estimates the horizontal velocity
+// half as well). Pose sources update at their own rates; the covariance is iterated through the
+// periodic schedule (IMU steps, updates at each source's sample times) - the discrete Riccati
+// recursion - until the gains repeat to 1e-12 from one period of the schedule to the next. A
+// source's steady-state weights are the mean of its gains over one period (all equal with a
+// single source). From the initial covariance on, the gains of the first updates form the
+// transient schedule, so the offsets are learnt in seconds rather than in minutes. The pose delay
+// does not enter: merging each pose at its stamp and re-applying the IMU is the on-time filter.
 
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "mav/common/status.h"
 
 namespace mav::control {
 
-// Gains applied to one pose residual: p += position * r_p, v += velocity * r_p,
-// b_a(world) += accel_offset * r_p, q = q Exp(orientation * r_q), b_g += gyro_offset * r_q.
+// Gains applied to one pose residual (world frame: r_p position, r_t rotation vector):
+//   per horizontal axis [dp, dv, db_a, dtheta, db_g] = horizontal * [r_p, r_theta],
+//   vertically [dp, dv, db_a] = vertical * r_p.z,  [dpsi, db_g] = heading * r_t.z.
 struct CorrectionWeights {
-  double position = 0;      // dimensionless
-  double velocity = 0;      // 1/s
-  double accel_offset = 0;  // 1/s^2 (negative: an offset makes the estimate run ahead)
-  double orientation = 0;   // dimensionless: the fraction of the relative rotation applied
-  double gyro_offset = 0;   // 1/s
+  Eigen::Matrix<double, 5, 2> horizontal = Eigen::Matrix<double, 5, 2>::Zero();
+  Eigen::Vector3d vertical = Eigen::Vector3d::Zero();
+  Eigen::Vector2d heading = Eigen::Vector2d::Zero();
+
+  // The paper's decoupled form: one weight per state, the same on every axis (fractions of the
+  // residual for position and orientation; 1/s, 1/s^2 for the rates and offsets).
+  static CorrectionWeights Decoupled(double position, double velocity, double accel_offset,
+                                     double orientation, double gyro_offset);
+  double position() const { return vertical[0]; }
+  double orientation() const { return heading[0]; }
 };
 
 struct PoseSourceNoise {
@@ -53,6 +63,8 @@ struct WeightModel {
   double initial_velocity_sigma = 0.2;      // m/s
   double initial_accel_offset_sigma = 0.5;  // m/s^2
   double initial_gyro_offset_sigma = 0.05;  // rad/s
+  // false: the paper's decoupled weights (translation and orientation filtered apart).
+  bool couple_tilt = true;
   std::vector<PoseSourceNoise> sources{PoseSourceNoise{}};
 
   bool IsValid(std::string* why) const;

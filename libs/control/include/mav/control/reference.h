@@ -1,9 +1,11 @@
 #pragma once
-// References the autopilot flies when told to go somewhere without a planned trajectory: one
-// quintic segment per axis from the current reference (position, velocity, acceleration, yaw,
-// yaw rate) to rest at the goal. A rest-to-rest quintic reaches its peak speed 1.875 D/T and
-// peak acceleration 5.7735 D/T^2 (D the distance, T the duration), so the duration is the least
-// T that keeps both, and the yaw rate (1.875 |dpsi|/T), inside the limits.
+// References the autopilot flies when told to go somewhere without a planned trajectory. From
+// rest: the septic rest-to-rest profile s(u) = 35u^4 - 84u^5 + 70u^6 - 20u^7 along the straight
+// line (zero speed, acceleration and jerk at both ends, so the body rates start and end near
+// zero), as 8 quintic segments matching it to the acceleration at their knots (the
+// PolynomialTrajectory layout). Its peak speed is 2.1875 D/T and peak acceleration 7.5132 D/T^2
+// (D the distance, T the duration): the duration is the least T that keeps both, and the yaw
+// rate (2.1875 |dpsi|/T), inside the limits. From a moving reference: one quintic to rest.
 
 #include <Eigen/Core>
 

@@ -57,6 +57,9 @@ struct VehicleParameters {
   double thrust_constant = 8.54858e-6;  // N/(rad/s)^2
   double moment_constant_m = 0.016;     // yaw torque per thrust
   double max_rotor_speed_radps = 838;
+  // First-order motor lag (the autopilot's model of the thrust actually produced).
+  double motor_time_constant_up_s = 0.0125;
+  double motor_time_constant_down_s = 0.025;
 
   bool IsValid(std::string* why) const;
   // Thrust of all rotors at full speed, N.

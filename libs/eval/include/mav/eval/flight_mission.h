@@ -41,8 +41,9 @@ struct FlightMissionOptions {
   sim::FlightSimulationOptions simulation;
   // Take-off and set-point moves.
   control::GoToLimits takeoff_limits{1.5, 2.0, 1.0, 0.5};
-  // Waypoint moves of t4_1 / t4_2: ~4 s for the contest's 21.5 m legs (tilt up to ~40 deg).
-  control::GoToLimits waypoint_limits{10.0, 8.0, 1.5, 0.5};
+  // Waypoint moves of t4_1 / t4_2: ~4 s for the contest's 21.5 m legs (tilt up to ~45 deg):
+  // settling within 5 s of the publication is the best band physics leaves (<= 1 s is not).
+  control::GoToLimits waypoint_limits{12.0, 10.0, 1.5, 0.5};
   LegPlanner planner;  // kPlannedLegs only
   // Overrides applied to the options AutopilotOptionsForTask derives (may be null).
   std::function<void(control::AutopilotOptions*)> tune;

@@ -72,6 +72,9 @@ class Multicopter {
   // Places the vehicle at rest (rotors stopped). on_ground: resting on ground_z (p.z is then
   // ground_z + rest_height).
   void Reset(const Eigen::Vector3d& p_world, double yaw_rad, bool on_ground, double ground_z);
+  // Replaces the whole state (e.g. to start airborne with the rotors at speed); the rotor speeds
+  // must have rotor_count entries. The ground stays where Reset put it.
+  void SetState(const MulticopterState& state);
   // Advances by dt_s holding the rotor speed command (size rotor_count, rad/s).
   GroundContact Step(const RotorVector& command_radps, double dt_s);
   // External force on the centre of mass (world frame, N), held until changed.

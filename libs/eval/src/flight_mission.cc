@@ -1,6 +1,7 @@
 #include "mav/eval/flight_mission.h"
 
 #include <cmath>
+#include <limits>
 
 #include "mav/common/time.h"
 
@@ -66,7 +67,7 @@ struct Mission {
 
   // Called after each step's inputs are fed.
   Status Update(const sim::FlightStep& out, FlightRecord* record) {
-    if (!ap.status().armed) {
+    if (!ap.armed()) {
       if (took_off || !ap.estimator().converged()) return Status::Ok();
       MAV_RETURN_IF_ERROR(ap.Arm());
       record->arm_t_s = NsToSeconds(out.t_ns);
@@ -105,7 +106,14 @@ Result<FlightRecord> FlyTask(const dataset::FlightTask& task, const FlightMissio
   record.samples.reserve(static_cast<size_t>(task.duration_s * task.imu.rate_hz) + 2);
   Mission mission{task, options, ap, sim};
   const sim::FlightStep* out = &sim.Initial();
+  record.min_clearance_m = std::numeric_limits<double>::infinity();
+  int64_t next_clearance_ns = 0;
   while (true) {
+    if (sim.world() && out->goal_index >= 0 && out->t_ns >= next_clearance_ns) {
+      next_clearance_ns = out->t_ns + 100'000'000;
+      record.min_clearance_m =
+          std::min(record.min_clearance_m, sim.world()->Clearance(out->truth.p_world, 5.0));
+    }
     for (const sim::PoseSample& p : out->poses) {
       // Stale or early poses are the estimator's business (counted, not fatal).
       (void)ap.FeedPose(control::PoseMeasurement{p.t_ns, p.sensor, p.T_world_sensor});
@@ -131,7 +139,6 @@ Result<FlightRecord> FlyTask(const dataset::FlightTask& task, const FlightMissio
     return Status::FailedPrecondition("task " + task.name + ": the estimator never converged");
   }
   record.collisions = sim.collisions();
-  record.min_clearance_m = sim.min_clearance_m();
   record.autopilot = ap.status();
   record.step_ms = record.autopilot.step_ms;
   record.simulated_s = NsToSeconds(sim.t_ns());

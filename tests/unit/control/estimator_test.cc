@@ -33,8 +33,9 @@ TEST(EstimatorTest, NoiseFreeConvergesToGroundTruth) {
   const int64_t delay = 100'000'000;
   for (int64_t t = 0; t <= SecondsToNs(30); t += kImuNs) {
     e.FeedImu(ImuAt(t));
-    if (t >= delay && (t - delay) % kPoseNs == 0)
+    if (t >= delay && (t - delay) % kPoseNs == 0) {
       ASSERT_TRUE(e.FeedPose(PoseAt(t - delay, Mount())).ok());
+    }
   }
   const auto truth = TruthAt(30);
   // The Euler prediction of this brisk motion (0.6 m/s, 0.6 m/s^2, yawing 0.3 rad/s) leaves a
@@ -73,8 +74,9 @@ TEST(EstimatorTest, LearnsImuOffsets) {
     m.accel += ba;
     m.gyro += bg;
     e.FeedImu(m);
-    if (t >= kPoseNs && t % kPoseNs == 0)
+    if (t >= kPoseNs && t % kPoseNs == 0) {
       ASSERT_TRUE(e.FeedPose(PoseAt(t - kPoseNs, Mount())).ok());
+    }
   }
   EXPECT_LT((e.state().gyro_offset - bg).norm(), 2e-3);
   EXPECT_LT((e.state().accel_offset - ba).norm(), 5e-2);
@@ -131,8 +133,9 @@ TEST(EstimatorTest, TwoSourcesWithTheirMountings) {
   Estimator e = *Estimator::Create(o);
   for (int64_t t = 0; t <= SecondsToNs(20); t += kImuNs) {
     e.FeedImu(ImuAt(t));
-    if (t >= kPoseNs && t % kPoseNs == 0)
+    if (t >= kPoseNs && t % kPoseNs == 0) {
       ASSERT_TRUE(e.FeedPose(PoseAt(t - kPoseNs, Mount(), 0)).ok());
+    }
     if (t >= 80'000'000 && (t - 80'000'000) % 50'000'000 == 0) {
       ASSERT_TRUE(e.FeedPose(PoseAt(t - 80'000'000, second.T_body_sensor, 1)).ok());
     }

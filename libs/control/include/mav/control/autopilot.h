@@ -137,7 +137,10 @@ class Autopilot {
   Status SetPaperGains(const PaperControllerGains& gains);
   Status SetLeeGains(const LeeControllerGains& gains);
 
+  // Counters and statistics (sorts the step-time window: not for every step).
   AutopilotStatus status() const;
+  bool armed() const { return armed_; }
+  FlightMode mode() const { return mode_; }
   AutopilotState state() const;
   const Estimator& estimator() const { return estimator_; }
   const AutopilotOptions& options() const { return options_; }

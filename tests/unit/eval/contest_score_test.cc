@@ -44,7 +44,7 @@ std::vector<FlightTraceSample> Trace(double duration, const Eigen::Vector3d& goa
 
 FlightTask Disturbance() {
   FlightTask t;
-  t.name = "d";
+  t.name = std::string("disturbance");
   t.kind = FlightTaskKind::kDisturbance;
   t.duration_s = 65;
   t.goals = {{10, Eigen::Vector3d(0, 0, 1), 0}};
@@ -105,7 +105,7 @@ TEST(ContestScoreTest, NeverSettlingScoresNothingAndCountsAs101Percent) {
 
 TEST(ContestScoreTest, HoverWindowStartsFiveSecondsAfterTheSetPoint) {
   FlightTask t;
-  t.name = "h";
+  t.name = std::string("hover");
   t.kind = FlightTaskKind::kHover;
   t.duration_s = 30;
   t.goals = {{10, Eigen::Vector3d(0, 0, 1), 0}};
@@ -121,7 +121,7 @@ TEST(ContestScoreTest, HoverWindowStartsFiveSecondsAfterTheSetPoint) {
 
 TEST(ContestScoreTest, AnyCollisionScoresZeroAndWaypointLegsAreMeasured) {
   FlightTask t;
-  t.name = "w";
+  t.name = std::string("waypoints");
   t.kind = FlightTaskKind::kWaypoints;
   t.duration_s = 40;
   t.goals = {{0, Eigen::Vector3d(0, 0, 1), 0}, {10, Eigen::Vector3d(10, 0, 1), 0}};

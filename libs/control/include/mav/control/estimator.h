@@ -60,7 +60,7 @@ struct EstimatorOptions {
   double initial_velocity_sigma = 0.2;      // m/s
   double initial_accel_offset_sigma = 0.5;  // m/s^2
   double initial_gyro_offset_sigma = 0.05;  // rad/s
-  std::vector<PoseSourceOptions> sources{PoseSourceOptions{}};
+  std::vector<PoseSourceOptions> sources = std::vector<PoseSourceOptions>(1);
   // false: the IMU offsets stay at zero (for tests and the ablation).
   bool estimate_offsets = true;
   // false: the steady-state weights from the first pose on (slow offset learning).

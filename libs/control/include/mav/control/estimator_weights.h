@@ -65,7 +65,7 @@ struct WeightModel {
   double initial_gyro_offset_sigma = 0.05;  // rad/s
   // false: the paper's decoupled weights (translation and orientation filtered apart).
   bool couple_tilt = true;
-  std::vector<PoseSourceNoise> sources{PoseSourceNoise{}};
+  std::vector<PoseSourceNoise> sources = std::vector<PoseSourceNoise>(1);
 
   bool IsValid(std::string* why) const;
 };

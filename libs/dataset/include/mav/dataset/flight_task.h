@@ -99,7 +99,7 @@ struct FlightTask {
   std::vector<FlightGoal> goals;
   std::vector<ForceWindow> forces;
   FlightImuSpec imu;
-  std::vector<FlightPoseSensorSpec> pose_sensors{FlightPoseSensorSpec{}};
+  std::vector<FlightPoseSensorSpec> pose_sensors = std::vector<FlightPoseSensorSpec>(1);
   // OctoMap (.bt) the vehicle may collide with; empty: the ground plane only.
   std::string map_path;
   // Collision sphere around the body origin (arms 0.215 m + rotor radius 0.1 m + margin).

@@ -111,7 +111,8 @@ Status WriteErrorPlot(const std::string& path, const dataset::FlightTask& task,
       const double b = std::min(g.window_start_s + task.scoring.window_s, t1);
       if (b > a) {
         const cv::Scalar c = k == 0 ? cv::Scalar(40, 160, 40) : cv::Scalar(40, 40, 200);
-        cv::line(img, px(a, 0), px(b, 0), c, 4);
+        const cv::Point lift(0, -5 * static_cast<int>(k));  // one bar above the other
+        cv::line(img, px(a, 0) + lift, px(b, 0) + lift, c, 4);
       }
     }
   }
@@ -200,6 +201,22 @@ int RunControl(const std::vector<std::string>& args) {
   flags.AddString("out", &out_dir, "write DIR/<controller>/<task>.csv and PNG plots");
   flags.AddString("json", &json_path, "write {\"<controller>/<task>\": {metric: value}}");
   flags.AddString("map", &map_path, "t4_3's OctoMap (the contest's power_plant.bt)");
+  // The paper controller's design, for the trade-off measurements of docs/control.md.
+  const control::PaperControllerGains defaults;
+  double position_pole = 0, attitude_omega = defaults.attitude_omega_radps;
+  double attitude_zeta = defaults.attitude_zeta;
+  const control::AutopilotOptions ap_defaults;
+  double observer_s = ap_defaults.disturbance_observer_s, blend_s = ap_defaults.correction_blend_s;
+  bool decoupled = false;
+  flags.AddDouble("position-pole", &position_pole,
+                  "paper: put the three translational poles at -P rad/s (0 = the default design)");
+  flags.AddDouble("attitude-omega", &attitude_omega,
+                  "paper: planar loop natural frequency [rad/s]");
+  flags.AddDouble("attitude-zeta", &attitude_zeta, "paper: planar loop damping");
+  flags.AddDouble("observer-s", &observer_s, "disturbance observer time constant [s] (0 = off)");
+  flags.AddDouble("blend-s", &blend_s, "correction blending time constant [s] (0 = off)");
+  flags.AddBool("decoupled-estimator", &decoupled,
+                "the paper's decoupled estimator weights (no tilt coupling)");
   bool help = false;
   if (Status s = flags.Parse(args, nullptr, &help); !s.ok()) return Fail(s.message(), 2);
   if (help) {
@@ -242,6 +259,19 @@ int RunControl(const std::vector<std::string>& args) {
       eval::FlightMissionOptions options;
       options.controller = c;
       options.seed = seed;
+      options.tune = [&](control::AutopilotOptions* a) {
+        if (position_pole > 0) {
+          // (s + P)^3 = s^3 + 3P s^2 + 3P^2 s + P^3.
+          a->paper_gains.position_omega_radps.setConstant(std::sqrt(3.0) * position_pole);
+          a->paper_gains.position_zeta.setConstant(std::sqrt(3.0) / 2.0);
+          a->paper_gains.integral_gain.setConstant(std::pow(position_pole, 3));
+        }
+        a->paper_gains.attitude_omega_radps = attitude_omega;
+        a->paper_gains.attitude_zeta = attitude_zeta;
+        a->disturbance_observer_s = observer_s;
+        a->correction_blend_s = blend_s;
+        a->estimator.couple_tilt = !decoupled;
+      };
       Result<eval::FlightRecord> record = eval::FlyTask(task, options);
       if (!record.ok()) {
         if (record.status().code() == StatusCode::kFailedPrecondition &&
@@ -322,7 +352,7 @@ int RunControl(const std::vector<std::string>& args) {
         for (const auto& g : task.goals) goals.positions.push_back(g.position);
         series.push_back(goals);
         if (Status st = WriteTopViewPlot(out_dir + "/" + task.name + "_top.png",
-                                         task.name + " top view (x-y, m)", series);
+                                         task.name + " top view", series);
             !st.ok()) {
           return Fail(st.message());
         }

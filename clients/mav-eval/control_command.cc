@@ -208,6 +208,17 @@ int RunControl(const std::vector<std::string>& args) {
   const control::AutopilotOptions ap_defaults;
   double observer_s = ap_defaults.disturbance_observer_s, blend_s = ap_defaults.correction_blend_s;
   bool decoupled = false;
+  const control::PaperControllerGains gust_defaults = control::AutopilotOptions::GustGains();
+  double gust_pole = 0;
+  double gust_attitude_omega = gust_defaults.attitude_omega_radps;
+  double gust_threshold = ap_defaults.gust_threshold_mps2;
+  flags.AddDouble("gust-pole", &gust_pole,
+                  "paper: translational poles at -P rad/s while a gust is rejected (0 = no gain "
+                  "scheduling; 4 = AutopilotOptions::GustGains())");
+  flags.AddDouble("gust-attitude-omega", &gust_attitude_omega,
+                  "paper: planar loop natural frequency while a gust is rejected [rad/s]");
+  flags.AddDouble("gust-threshold", &gust_threshold,
+                  "observed disturbance step that switches the gust gains in [m/s^2]");
   flags.AddDouble("position-pole", &position_pole,
                   "paper: put the three translational poles at -P rad/s (0 = the default design)");
   flags.AddDouble("attitude-omega", &attitude_omega,
@@ -271,6 +282,17 @@ int RunControl(const std::vector<std::string>& args) {
         a->disturbance_observer_s = observer_s;
         a->correction_blend_s = blend_s;
         a->estimator.couple_tilt = !decoupled;
+        a->gust_threshold_mps2 = gust_threshold;
+        if (gust_pole <= 0) {
+          a->gust_gains.reset();
+        } else {
+          control::PaperControllerGains g = gust_defaults;
+          g.position_omega_radps.setConstant(std::sqrt(3.0) * gust_pole);
+          g.position_zeta.setConstant(std::sqrt(3.0) / 2.0);
+          g.integral_gain.setConstant(std::pow(gust_pole, 3));
+          g.attitude_omega_radps = gust_attitude_omega;
+          a->gust_gains = g;
+        }
       };
       Result<eval::FlightRecord> record = eval::FlyTask(task, options);
       if (!record.ok()) {

@@ -60,10 +60,25 @@ bool AutopilotOptions::IsValid(std::string* why) const {
   if (!(correction_blend_s >= 0 && correction_blend_s <= 5)) {
     return fail("correction_blend_s: must be in [0, 5] (0 = off)");
   }
+  if (gust_gains && !prefixed("gust_gains.", gust_gains->IsValid(w))) return false;
+  if (!(gust_threshold_mps2 > 0 && std::isfinite(gust_threshold_mps2))) {
+    return fail("gust_threshold_mps2: must be positive");
+  }
+  if (!(gust_hold_s >= 0 && std::isfinite(gust_hold_s))) return fail("gust_hold_s: must be >= 0");
   if (allocation.min_rotor_speed_radps >= vehicle.max_rotor_speed_radps) {
     return fail("allocation.min_rotor_speed_radps: must be below vehicle.max_rotor_speed_radps");
   }
   return true;
+}
+
+PaperControllerGains AutopilotOptions::GustGains() {
+  PaperControllerGains g;
+  g.position_omega_radps.setConstant(4.0 * std::sqrt(3.0));
+  g.position_zeta.setConstant(std::sqrt(3.0) / 2.0);
+  g.integral_gain.setConstant(64.0);
+  g.attitude_omega_radps = 16.0;
+  g.attitude_zeta = 0.8;
+  return g;
 }
 
 Result<Autopilot> Autopilot::Create(const AutopilotOptions& options) {
@@ -150,6 +165,7 @@ void Autopilot::UpdateDisturbance(const EstimatorState& x, double dt_s) {
   const bool airborne = armed_ && x.p_world.z() > arm_z_ + 0.15;
   if (options_.disturbance_observer_s <= 0 || !airborne) {
     disturbance_.setZero();
+    disturbance_slow_.setZero();
     return;
   }
   const Eigen::Vector3d a_model = x.q_world_body * Eigen::Vector3d(0, 0, thrust / veh.mass_kg) -
@@ -158,6 +174,23 @@ void Autopilot::UpdateDisturbance(const EstimatorState& x, double dt_s) {
   disturbance_ = f * disturbance_ + (1 - f) * (x.a_world - a_model);
   constexpr double kMaxDisturbance = 8.0;  // m/s^2: beyond, the model is wrong, not the wind
   if (disturbance_.norm() > kMaxDisturbance) disturbance_ *= kMaxDisturbance / disturbance_.norm();
+  const double f_slow = Decay(dt_s, 2.0);
+  disturbance_slow_ = f_slow * disturbance_slow_ + (1 - f_slow) * disturbance_;
+  if (options_.gust_gains && !has_trajectory_ && mode_ == FlightMode::kHover &&
+      (disturbance_ - disturbance_slow_).norm() > options_.gust_threshold_mps2) {
+    gust_until_ns_ = now_ns_ + SecondsToNs(options_.gust_hold_s);
+  }
+}
+
+void Autopilot::ScheduleGains() {
+  auto* paper = dynamic_cast<PaperController*>(controller_.get());
+  if (!paper || !options_.gust_gains) return;
+  const bool gust = now_ns_ < gust_until_ns_;
+  if (gust == gust_gains_active_) return;
+  gust_gains_active_ = gust;
+  if (gust) ++gust_activations_;
+  // The integral state is kept across the switch.
+  paper->SetGains(gust ? *options_.gust_gains : options_.paper_gains);
 }
 
 const RotorVector& Autopilot::FeedImu(const ImuMeasurement& imu) {
@@ -198,6 +231,7 @@ const RotorVector& Autopilot::FeedImu(const ImuMeasurement& imu) {
   } else {
     reference_ = ReferenceAt(now_ns_);
   }
+  ScheduleGains();
   controller_->SetDisturbance(disturbance_);
   const Wrench wrench = controller_->Update(x, reference_, dt_s, saturated_);
   AllocationResult alloc;
@@ -260,6 +294,9 @@ Status Autopilot::Arm() {
   controller_->Reset();
   arm_z_ = x.p_world.z();
   disturbance_.setZero();
+  disturbance_slow_.setZero();
+  gust_until_ns_ = 0;
+  ScheduleGains();
   StartHold(x.p_world, std::atan2(R(1, 0), R(0, 0)));
   reference_ = hold_;
   armed_ = true;
@@ -349,7 +386,9 @@ Status Autopilot::SetTrajectory(const geometry::PolynomialTrajectory& trajectory
 Status Autopilot::SetPaperGains(const PaperControllerGains& gains) {
   if (std::string why; !gains.IsValid(&why)) return Status::InvalidArgument(why);
   options_.paper_gains = gains;
-  if (auto* c = dynamic_cast<PaperController*>(controller_.get())) c->SetGains(gains);
+  if (auto* c = dynamic_cast<PaperController*>(controller_.get()); c && !gust_gains_active_) {
+    c->SetGains(gains);
+  }
   return Status::Ok();
 }
 
@@ -373,6 +412,7 @@ AutopilotStatus Autopilot::status() const {
   s.saturated_steps = saturated_steps_;
   s.imu_timeouts = imu_timeouts_;
   s.pose_timeouts = pose_timeouts_;
+  s.gust_activations = gust_activations_;
   if (rms_count_ > 0) {
     s.position_rms_m = std::sqrt(sum_position_sq_ / rms_count_);
     s.angular_rate_rms_radps = std::sqrt(sum_rate_sq_ / rms_count_);

@@ -70,6 +70,26 @@ TEST(FlightContestTest, LeeKeepsASteadyOffsetUnderConstantWindThePaperController
   EXPECT_FALSE(lee.all_settled);  // 2 N against 6 N/m and the mass error: > 0.1 m off
 }
 
+// The optional gain scheduling switches in on the gust (and its end), never in a calm hover.
+TEST(FlightContestTest, GustGainsSwitchInOnlyForTheGust) {
+  FlightMissionOptions o;
+  o.seed = 1000;
+  o.tune = [](control::AutopilotOptions* a) {
+    a->gust_gains = control::AutopilotOptions::GustGains();
+  };
+  const Result<FlightRecord> calm = FlyTask(*sim::BuiltinFlightTask("t3_1"), o);
+  ASSERT_TRUE(calm.ok());
+  EXPECT_EQ(calm->autopilot.gust_activations, 0u);
+  const dataset::FlightTask t = *sim::BuiltinFlightTask("t3_3");
+  const Result<FlightRecord> gust = FlyTask(t, o);
+  ASSERT_TRUE(gust.ok());
+  EXPECT_GE(gust->autopilot.gust_activations, 1u);
+  EXPECT_LE(gust->autopilot.gust_activations, 2u);  // the onset and the end (if the hold lapsed)
+  const TaskScore s = ScoreFlightTask(t, Trace(*gust), 0);
+  EXPECT_TRUE(s.all_settled);
+  EXPECT_LT(s.settling_time_s, 3.0);
+}
+
 TEST(FlightContestTest, PlannedLegsNeedAPlanner) {
   const dataset::FlightTask t = *sim::BuiltinFlightTask("t4_3");
   const Result<FlightRecord> r = FlyTask(t, FlightMissionOptions());

@@ -18,6 +18,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "mav/common/stats.h"
@@ -69,6 +70,18 @@ struct AutopilotOptions {
   // constant instead of as a step (the estimator itself stays the optimal filter): the steps
   // would otherwise excite body rates every 100 ms.
   double correction_blend_s = 0.2;
+  // Gain scheduling on the observer: while the observed disturbance steps (|d - d_slow| >
+  // gust_threshold_mps2, d_slow its 2 s low-pass) and the vehicle holds a position (no move in
+  // progress), the paper controller flies gust_gains until gust_hold_s after the last such step:
+  // fast poles reject a gust, calm ones keep the hover's body rates low. Unset (the default) =
+  // never: with GustGains() t3_3 never leaves the 0.1 m ball for 3 of 5 seeds, but the window
+  // then holds the fast tilting and the contest's points drop (docs/control.md); faster sets
+  // than GustGains() go unstable with the motor lag.
+  std::optional<PaperControllerGains> gust_gains;
+  double gust_threshold_mps2 = 0.6;
+  double gust_hold_s = 3.0;
+  // (s + 4)^3 translational poles, planar loop 16 rad/s / 0.8.
+  static PaperControllerGains GustGains();
 
   bool IsValid(std::string* why) const;
 };
@@ -84,6 +97,7 @@ struct AutopilotStatus {
   uint64_t saturated_steps = 0;
   uint64_t imu_timeouts = 0;
   uint64_t pose_timeouts = 0;
+  uint64_t gust_activations = 0;  // times the gust gains were switched in
   // RMS since Arm of |p_ref - p_est| and |w_est - w_ref| (the contest's figures on the estimate).
   double position_rms_m = 0;
   double angular_rate_rms_radps = 0;
@@ -157,6 +171,7 @@ class Autopilot {
   geometry::TrajectoryPoint ReferenceAt(int64_t t_ns);
   void StartHold(const Eigen::Vector3d& position, double yaw_rad);
   void UpdateDisturbance(const EstimatorState& x, double dt_s);
+  void ScheduleGains();
 
   AutopilotOptions options_;
   Estimator estimator_;
@@ -187,6 +202,10 @@ class Autopilot {
   // Disturbance observer and correction blending (see the options).
   RotorVector motor_model_;
   Eigen::Vector3d disturbance_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d disturbance_slow_ = Eigen::Vector3d::Zero();
+  int64_t gust_until_ns_ = 0;
+  bool gust_gains_active_ = false;
+  uint64_t gust_activations_ = 0;
   double arm_z_ = 0;
   Eigen::Vector3d blend_p_ = Eigen::Vector3d::Zero(), blend_v_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d blend_q_ = Eigen::Vector3d::Zero();

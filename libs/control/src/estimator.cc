@@ -1,6 +1,8 @@
 #include "mav/control/estimator.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "mav/common/time.h"
 
@@ -68,6 +70,10 @@ Estimator::Estimator(const EstimatorOptions& options, WeightSchedule weights)
       static_cast<size_t>(std::ceil(2.0 * options.buffer_s * options.imu_rate_hz)) + 4;
   ring_.resize(capacity);
   updates_per_source_.assign(options.sources.size(), 0);
+  // Room for every pose of every source within the buffer at up to 4x its nominal rate.
+  double poses = 0;
+  for (const PoseSourceOptions& s : options.sources) poses += 4.0 * s.rate_hz * options.buffer_s;
+  applied_.resize(static_cast<size_t>(std::ceil(poses)) + 4);
 }
 
 void Estimator::Reset() {
@@ -76,6 +82,7 @@ void Estimator::Reset() {
   current_ = EstimatorState();
   counters_ = EstimatorCounters();
   updates_per_source_.assign(options_.sources.size(), 0);
+  applied_size_ = 0;
 }
 
 bool Estimator::converged() const {
@@ -116,17 +123,17 @@ void Estimator::FeedImu(const ImuMeasurement& imu) {
   current_ = x;
 }
 
-void Estimator::Correct(const PoseMeasurement& pose, EstimatorState* x) {
+CorrectionWeights Estimator::NextWeights(int source) {
+  const uint64_t k = updates_per_source_[source]++;
+  if (options_.weights_override) return *options_.weights_override;
+  const auto& transient = weights_.transient[source];
+  return options_.transient_weights && k < transient.size() ? transient[k]
+                                                            : weights_.steady[source];
+}
+
+void Estimator::Correct(const PoseMeasurement& pose, const CorrectionWeights& w,
+                        EstimatorState* x) {
   const PoseSourceOptions& src = options_.sources[pose.source];
-  const uint64_t k = updates_per_source_[pose.source]++;
-  CorrectionWeights w;
-  if (options_.weights_override) {
-    w = *options_.weights_override;
-  } else {
-    const auto& transient = weights_.transient[pose.source];
-    w = options_.transient_weights && k < transient.size() ? transient[k]
-                                                           : weights_.steady[pose.source];
-  }
   const Eigen::Quaterniond q_meas =
       pose.T_world_sensor.Rotation() * src.T_body_sensor.Rotation().conjugate();
   const Eigen::Vector3d r_p = pose.T_world_sensor.Translation() -
@@ -174,46 +181,73 @@ Status Estimator::FeedPose(const PoseMeasurement& pose) {
     }
   }
   const int j = lo;
+  const int64_t t_j = At(j).imu.t_ns;
   EstimatorState x = At(j).state;
-  int64_t t_x = At(j).imu.t_ns;
   if (!initialized_) {
+    // The first pose initialises position and orientation (at the sample before its stamp).
     const PoseSourceOptions& src = options_.sources[pose.source];
     const geometry::SE3 T_world_body = pose.T_world_sensor * src.T_body_sensor.Inverse();
     x = EstimatorState();
     x.p_world = T_world_body.Translation();
     x.q_world_body = T_world_body.Rotation();
+    x.t_ns = t_j;
+    At(j).state = x;
     initialized_ = true;
-    init_t_ns_ = pose.t_ns;
+    init_t_ns_ = t_j;
     ++updates_per_source_[pose.source];
+    applied_size_ = 0;
   } else {
-    // Bring the estimate from the sample before the stamp to the stamp itself (a pose stamped
-    // between IMU samples), with the following sample's reading.
-    if (pose.t_ns > t_x && j + 1 < size_) {
-      Propagate(At(j + 1).imu, NsToSeconds(pose.t_ns - t_x), &x);
-      t_x = pose.t_ns;
+    // Remember the pose (stamp order) with its weights, forgetting those older than the buffer.
+    const int64_t oldest = At(0).imu.t_ns;
+    int keep = 0;
+    for (int i = 0; i < applied_size_; ++i) {
+      if (applied_[i].pose.t_ns >= oldest) applied_[keep++] = applied_[i];
     }
-    Correct(pose, &x);
+    applied_size_ = keep;
+    if (applied_size_ == static_cast<int>(applied_.size())) {  // full: drop the oldest
+      std::move(applied_.begin() + 1, applied_.end(), applied_.begin());
+      --applied_size_;
+    }
+    int pos = applied_size_;
+    while (pos > 0 && applied_[pos - 1].pose.t_ns > pose.t_ns) {
+      applied_[pos] = applied_[pos - 1];
+      --pos;
+    }
+    applied_[pos] = Applied{pose, NextWeights(pose.source)};
+    ++applied_size_;
   }
-  // Re-apply the IMU after the stamp.
-  for (int k = j + 1; k < size_; ++k) {
+  // Re-apply the IMU after t_j, and every pose stamped from t_j on at its stamp (in stamp order):
+  // the state stored at each sample holds the corrections stamped before it, so a late pose, or
+  // one arriving out of stamp order, leaves the estimate a filter fed in stamp order would have.
+  int next = 0;
+  while (next < applied_size_ && applied_[next].pose.t_ns < t_j) ++next;
+  int64_t t_x = t_j;
+  for (int k = j + 1; k <= size_; ++k) {
+    const bool last = k == size_;
+    const int64_t t_k = last ? std::numeric_limits<int64_t>::max() : At(k).imu.t_ns;
+    while (next < applied_size_ && applied_[next].pose.t_ns < t_k) {
+      const Applied& a = applied_[next++];
+      // Poses stamped after the newest sample are applied at it.
+      const int64_t t_a = last ? t_x : a.pose.t_ns;
+      if (t_a > t_x) {
+        Propagate(At(k).imu, NsToSeconds(t_a - t_x), &x);
+        t_x = t_a;
+      }
+      Correct(a.pose, a.weights, &x);
+    }
+    if (last) break;
     Entry& e = At(k);
     Propagate(e.imu, NsToSeconds(e.imu.t_ns - t_x), &x);
     t_x = e.imu.t_ns;
     x.t_ns = t_x;
     e.state = x;
   }
-  if (j + 1 >= size_) {
-    x.t_ns = At(size_ - 1).imu.t_ns;
-    At(size_ - 1).state = x;
-  }
-  // Keep the latest sample's rates in the output (a correction before the last sample re-ran
-  // Propagate, which set them; the initialisation at the newest sample leaves them unset).
-  if (j + 1 >= size_) {
-    x.omega_body = At(size_ - 1).imu.gyro - x.gyro_offset;
-  }
+  x.t_ns = At(size_ - 1).imu.t_ns;
+  // The latest sample's rates with the corrected offset.
+  x.omega_body = At(size_ - 1).imu.gyro - x.gyro_offset;
   current_ = x;
   ++counters_.poses_merged;
-  counters_.last_pose_t_ns = pose.t_ns;
+  counters_.last_pose_t_ns = std::max(counters_.last_pose_t_ns, pose.t_ns);
   return Status::Ok();
 }
 

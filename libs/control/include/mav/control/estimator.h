@@ -128,7 +128,12 @@ class Estimator {
   };
   Estimator(const EstimatorOptions& options, WeightSchedule weights);
   void Propagate(const ImuMeasurement& imu, double dt_s, EstimatorState* x) const;
-  void Correct(const PoseMeasurement& pose, EstimatorState* x);
+  struct Applied {
+    PoseMeasurement pose;
+    CorrectionWeights weights;
+  };
+  CorrectionWeights NextWeights(int source);
+  void Correct(const PoseMeasurement& pose, const CorrectionWeights& w, EstimatorState* x);
   Entry& At(int k) { return ring_[(head_ + k) % ring_.size()]; }
 
   EstimatorOptions options_;
@@ -136,6 +141,9 @@ class Estimator {
   std::vector<Entry> ring_;  // oldest at head_
   int head_ = 0, size_ = 0;
   std::vector<uint64_t> updates_per_source_;
+  // The poses merged within the buffer, in stamp order (re-applied when an older one arrives).
+  std::vector<Applied> applied_;
+  int applied_size_ = 0;
   bool initialized_ = false;
   int64_t init_t_ns_ = 0;
   EstimatorState current_;

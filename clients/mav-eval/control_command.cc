@@ -37,16 +37,6 @@ int Fail(const std::string& message, int code = 1) {
   return code;
 }
 
-std::vector<eval::FlightTraceSample> Trace(const eval::FlightRecord& r) {
-  std::vector<eval::FlightTraceSample> trace;
-  trace.reserve(r.samples.size());
-  for (const eval::FlightRecordSample& s : r.samples) {
-    trace.push_back(
-        {s.t_s, s.truth.p_world, s.truth.v_world, s.truth.omega_body, s.estimate.p_world});
-  }
-  return trace;
-}
-
 // DIR/<controller>/<task>.csv at 100 Hz (every step at the contest's IMU rate).
 Status WriteCsv(const std::string& path, const eval::FlightRecord& r) {
   std::ostringstream out;
@@ -309,8 +299,7 @@ int RunControl(const std::vector<std::string>& args) {
       Run run;
       run.controller = control::ControllerTypeName(c);
       run.task = task.name;
-      run.score =
-          eval::ScoreFlightTask(task, Trace(*record), static_cast<int>(record->collisions.size()));
+      run.score = eval::ScoreFlight(task, *record);
       run.record = std::move(record).value();
       PrintScore(run);
       const std::string group = run.controller + "/" + task.name;

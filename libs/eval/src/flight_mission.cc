@@ -146,4 +146,18 @@ Result<FlightRecord> FlyTask(const dataset::FlightTask& task, const FlightMissio
   return record;
 }
 
+std::vector<FlightTraceSample> FlightTrace(const FlightRecord& record) {
+  std::vector<FlightTraceSample> trace;
+  trace.reserve(record.samples.size());
+  for (const FlightRecordSample& s : record.samples) {
+    trace.push_back(
+        {s.t_s, s.truth.p_world, s.truth.v_world, s.truth.omega_body, s.estimate.p_world});
+  }
+  return trace;
+}
+
+TaskScore ScoreFlight(const dataset::FlightTask& task, const FlightRecord& record) {
+  return ScoreFlightTask(task, FlightTrace(record), static_cast<int>(record.collisions.size()));
+}
+
 }  // namespace mav::eval

@@ -12,15 +12,6 @@
 namespace mav::eval {
 namespace {
 
-std::vector<FlightTraceSample> Trace(const FlightRecord& r) {
-  std::vector<FlightTraceSample> out;
-  for (const auto& s : r.samples) {
-    out.push_back(
-        {s.t_s, s.truth.p_world, s.truth.v_world, s.truth.omega_body, s.estimate.p_world});
-  }
-  return out;
-}
-
 TaskScore Fly(const dataset::FlightTask& task, uint64_t seed,
               control::ControllerType c = control::ControllerType::kPaper) {
   FlightMissionOptions o;
@@ -29,7 +20,7 @@ TaskScore Fly(const dataset::FlightTask& task, uint64_t seed,
   const Result<FlightRecord> r = FlyTask(task, o);
   EXPECT_TRUE(r.ok()) << r.status().ToString();
   if (!r.ok()) return TaskScore();
-  return ScoreFlightTask(task, Trace(*r), static_cast<int>(r->collisions.size()));
+  return ScoreFlight(task, *r);
 }
 
 // Seeds 1000.. (the documented figures use seeds 1..).
@@ -85,7 +76,7 @@ TEST(FlightContestTest, GustGainsSwitchInOnlyForTheGust) {
   ASSERT_TRUE(gust.ok());
   EXPECT_GE(gust->autopilot.gust_activations, 1u);
   EXPECT_LE(gust->autopilot.gust_activations, 2u);  // the onset and the end (if the hold lapsed)
-  const TaskScore s = ScoreFlightTask(t, Trace(*gust), 0);
+  const TaskScore s = ScoreFlight(t, *gust);
   EXPECT_TRUE(s.all_settled);
   EXPECT_LT(s.settling_time_s, 3.0);
 }
@@ -129,7 +120,7 @@ TEST(FlightContestTest, PlantLegOnAHandMadeTrajectory) {
   EXPECT_TRUE(r->collisions.empty()) << r->collisions.front().what;
   EXPECT_GT(r->min_clearance_m, 0.6);
   EXPECT_LT(r->min_clearance_m, 10);  // measured (the ground is below)
-  const TaskScore s = ScoreFlightTask(t, Trace(*r), 0);
+  const TaskScore s = ScoreFlight(t, *r);
   ASSERT_EQ(s.goals.size(), 1u);
   EXPECT_TRUE(s.goals[0].settled);
   EXPECT_NEAR(s.goals[0].path_length_m, 4.0, 0.3);

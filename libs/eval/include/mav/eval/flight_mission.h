@@ -24,6 +24,7 @@
 #include "mav/common/status.h"
 #include "mav/control/autopilot.h"
 #include "mav/dataset/flight_task.h"
+#include "mav/eval/contest_score.h"
 #include "mav/geometry/polynomial_trajectory.h"
 #include "mav/sim/flight_simulation.h"
 
@@ -83,5 +84,10 @@ struct FlightRecord {
 // InvalidArgument for a bad task; FailedPrecondition when a kPlannedLegs task has no planner,
 // or the estimator never converged; a planner's failure is returned with the leg named.
 Result<FlightRecord> FlyTask(const dataset::FlightTask& task, const FlightMissionOptions& options);
+
+// The ground-truth trace of a record, for contest_score.h.
+std::vector<FlightTraceSample> FlightTrace(const FlightRecord& record);
+// ScoreFlightTask on the record's trace and collisions.
+TaskScore ScoreFlight(const dataset::FlightTask& task, const FlightRecord& record);
 
 }  // namespace mav::eval

@@ -1,6 +1,7 @@
 // mav-eval: reproduces the reference paper's tables with our own code and data.
 //   mav-eval localization --data DIR [--method ...] [--out DIR] [--json FILE]
 //   mav-eval mapping --data DIR [--method ...] [--out DIR] [--json FILE]
+//   mav-eval control [--task T|all] [--controller paper|lee|all] [--task-file F] [--out DIR]
 
 #include <iostream>
 #include <string>
@@ -15,6 +16,7 @@ constexpr const char* kUsage =
     "commands:\n"
     "  localization   stereo VO accuracy and runtime (the paper's Tables 1 and 2)\n"
     "  mapping        sparse mesh vs OctoMap: collision-check MCC and runtime (Tables 3 and 4)\n"
+    "  control        the EuRoC contest's flight tasks, scored (Sec. 3), paper vs Lee controller\n"
     "run 'mav-eval <command> --help' for the flags of a command\n";
 
 }  // namespace
@@ -28,6 +30,7 @@ int main(int argc, char** argv) {
   const std::vector<std::string> args(argv + 2, argv + argc);
   if (command == "localization") return mav::eval_cli::RunLocalization(args);
   if (command == "mapping") return mav::eval_cli::RunMapping(args);
+  if (command == "control") return mav::eval_cli::RunControl(args);
   if (command == "--help" || command == "-h" || command == "help") {
     std::cout << kUsage;
     return 0;

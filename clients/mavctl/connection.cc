@@ -8,10 +8,10 @@
 #include <grpcpp/client_context.h>
 #include <grpcpp/support/status.h>
 
-#include "services/common/grpc_status.h"
 #include "mav/common/time.h"
 #include "mav/transport/flags.h"
 #include "mav/transport/grpc_server.h"
+#include "services/common/grpc_status.h"
 
 namespace mav::mavctl {
 
@@ -75,6 +75,21 @@ int ReportRpcError(const Connection& connection, const std::string& rpc,
                       : mapped.ToString())
               << "\n";
   }
+  return 1;
+}
+
+int CallUnary(const Connection& connection, const std::string& rpc,
+              const std::function<grpc::Status(grpc::ClientContext*)>& call) {
+  grpc::ClientContext context;
+  SetDeadline(connection, &context);
+  const grpc::Status status = call(&context);
+  return status.ok() ? 0 : ReportRpcError(connection, rpc, status);
+}
+
+int ReportDownloadError(const Connection& connection, const std::string& rpc, const Status& s) {
+  if (s.ok()) return 0;
+  std::cerr << "mavctl: " << rpc << " at " << connection.Target()
+            << ": the download is broken: " << s.message() << "\n";
   return 1;
 }
 

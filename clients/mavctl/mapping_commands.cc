@@ -15,6 +15,7 @@
 
 #include "mav/v1/mapping.grpc.pb.h"
 
+#include "mav/common/file.h"
 #include "mav/common/parse.h"
 #include "mav/common/time.h"
 #include "mav/transport/flags.h"
@@ -209,11 +210,12 @@ int Start(const std::vector<std::string>& args) {
   request.mutable_keyframes()->set_features_per_keyframe(static_cast<uint32_t>(features));
   request.set_disable_dds_input(no_dds);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::MappingStatus status;
-  const grpc::Status rpc = stub->StartSession(&context, request, &status);
-  if (!rpc.ok()) return ReportRpcError(connection, "StartSession", rpc);
+  if (int rc = CallUnary(connection, "StartSession", [&](grpc::ClientContext* c) {
+        return stub->StartSession(c, request, &status);
+      })) {
+    return rc;
+  }
   PrintStatus(status);
   return 0;
 }
@@ -270,11 +272,12 @@ int Insert(const std::vector<std::string>& args) {
   t->mutable_orientation()->set_z(p[6]);
   request.set_force(force);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::InsertKeyframeResponse response;
-  const grpc::Status rpc = stub->InsertKeyframe(&context, request, &response);
-  if (!rpc.ok()) return ReportRpcError(connection, "InsertKeyframe", rpc);
+  if (int rc = CallUnary(connection, "InsertKeyframe", [&](grpc::ClientContext* c) {
+        return stub->InsertKeyframe(c, request, &response);
+      })) {
+    return rc;
+  }
   if (response.accepted()) {
     std::cout << "keyframe " << response.keyframe_index() << ": " << response.features()
               << " features, " << response.points_total() << " points in the map, "
@@ -317,11 +320,12 @@ int Build(const std::vector<std::string>& args) {
     return Usage("--unknown: '" + unknown + "' is not keep, occupied or free");
   }
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::BuildMapResponse response;
-  const grpc::Status rpc = stub->BuildMap(&context, request, &response);
-  if (!rpc.ok()) return ReportRpcError(connection, "BuildMap", rpc);
+  if (int rc = CallUnary(connection, "BuildMap", [&](grpc::ClientContext* c) {
+        return stub->BuildMap(c, request, &response);
+      })) {
+    return rc;
+  }
   PrintBuild(response);
   return 0;
 }
@@ -347,31 +351,22 @@ int Occupancy(const std::vector<std::string>& args) {
   request.set_format(format == "bt" ? v1::OCCUPANCY_FORMAT_OCTOMAP_BT
                                     : v1::OCCUPANCY_FORMAT_MAVOCC);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
-  auto reader = stub->GetOccupancy(&context, request);
-  std::ofstream out(out_path, std::ios::binary | std::ios::trunc);
-  if (!out) {
-    std::cerr << "mavctl: cannot write " << out_path << "\n";
-    return 1;
-  }
-  v1::OccupancyChunk chunk;
-  uint64_t bytes = 0;
+  std::string bytes;
   double resolution = 0;
-  while (reader->Read(&chunk)) {
-    if (bytes == 0) resolution = chunk.resolution_m();
-    out.write(chunk.chunk().data().data(),
-              static_cast<std::streamsize>(chunk.chunk().data().size()));
-    bytes += chunk.chunk().data().size();
+  if (int rc = DownloadChunks<v1::OccupancyChunk>(
+          connection, "GetOccupancy",
+          [&](grpc::ClientContext* c) { return stub->GetOccupancy(c, request); },
+          [](const v1::OccupancyChunk& m) -> const v1::FileChunk& { return m.chunk(); }, &bytes,
+          [&](const v1::OccupancyChunk& m) {
+            if (m.chunk().offset() == 0) resolution = m.resolution_m();
+          })) {
+    return rc;
   }
-  const grpc::Status rpc = reader->Finish();
-  if (!rpc.ok()) return ReportRpcError(connection, "GetOccupancy", rpc);
-  out.close();
-  if (!out) {
-    std::cerr << "mavctl: writing " << out_path << " failed\n";
+  if (Status s = WriteStringToFileAtomic(out_path, bytes); !s.ok()) {
+    std::cerr << "mavctl: " << s.message() << "\n";
     return 1;
   }
-  std::cout << "wrote " << out_path << " (" << bytes << " bytes, " << resolution << " m)\n";
+  std::cout << "wrote " << out_path << " (" << bytes.size() << " bytes, " << resolution << " m)\n";
   return 0;
 }
 
@@ -396,11 +391,12 @@ int Query(const std::vector<std::string>& args) {
   *request.add_boxes() = *box;
   request.set_unknown_is_collision(unknown_is_collision);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::QueryCollisionResponse response;
-  const grpc::Status rpc = stub->QueryCollision(&context, request, &response);
-  if (!rpc.ok()) return ReportRpcError(connection, "QueryCollision", rpc);
+  if (int rc = CallUnary(connection, "QueryCollision", [&](grpc::ClientContext* c) {
+        return stub->QueryCollision(c, request, &response);
+      })) {
+    return rc;
+  }
   switch (response.states(0)) {
     case v1::COLLISION_STATE_FREE:
       std::cout << "FREE\n";
@@ -429,28 +425,18 @@ int Mesh(const std::vector<std::string>& args) {
   v1::ExportMeshRequest request;
   request.set_format(ascii ? v1::MESH_FORMAT_PLY_ASCII : v1::MESH_FORMAT_PLY_BINARY);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
-  auto reader = stub->ExportMesh(&context, request);
-  std::ofstream out(out_path, std::ios::binary | std::ios::trunc);
-  if (!out) {
-    std::cerr << "mavctl: cannot write " << out_path << "\n";
+  std::string bytes;
+  if (int rc = DownloadChunks<v1::FileChunk>(
+          connection, "ExportMesh",
+          [&](grpc::ClientContext* c) { return stub->ExportMesh(c, request); },
+          [](const v1::FileChunk& m) -> const v1::FileChunk& { return m; }, &bytes)) {
+    return rc;
+  }
+  if (Status s = WriteStringToFileAtomic(out_path, bytes); !s.ok()) {
+    std::cerr << "mavctl: " << s.message() << "\n";
     return 1;
   }
-  v1::FileChunk chunk;
-  uint64_t bytes = 0;
-  while (reader->Read(&chunk)) {
-    out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
-    bytes += chunk.data().size();
-  }
-  const grpc::Status rpc = reader->Finish();
-  if (!rpc.ok()) return ReportRpcError(connection, "ExportMesh", rpc);
-  out.close();
-  if (!out) {
-    std::cerr << "mavctl: writing " << out_path << " failed\n";
-    return 1;
-  }
-  std::cout << "wrote " << out_path << " (" << bytes << " bytes)\n";
+  std::cout << "wrote " << out_path << " (" << bytes.size() << " bytes)\n";
   return 0;
 }
 
@@ -461,13 +447,14 @@ int StatusOrReset(const std::string& sub, const std::vector<std::string>& args) 
   AddConnectionFlags(&flags, &connection);
   ParseOrExit(&flags, &connection, args);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::MappingStatus status;
-  const grpc::Status rpc = sub == "reset"
-                               ? stub->Reset(&context, v1::MappingResetRequest(), &status)
-                               : stub->GetStatus(&context, v1::MappingGetStatusRequest(), &status);
-  if (!rpc.ok()) return ReportRpcError(connection, sub == "reset" ? "Reset" : "GetStatus", rpc);
+  if (int rc = CallUnary(
+          connection, sub == "reset" ? "Reset" : "GetStatus", [&](grpc::ClientContext* c) {
+            return sub == "reset" ? stub->Reset(c, v1::MappingResetRequest(), &status)
+                                  : stub->GetStatus(c, v1::MappingGetStatusRequest(), &status);
+          })) {
+    return rc;
+  }
   PrintStatus(status);
   return 0;
 }

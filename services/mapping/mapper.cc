@@ -448,6 +448,16 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(const BuildRequest& request,
                                             request.resolution_m)
           : pipeline.GeometryAround(request.resolution_m, BuildRequest::kDefaultPaddingM,
                                     request.min_visibility);
+  if (request.method == MappingMethod::kOctomap && request.bounds.has_value()) {
+    const double limit = pipeline.options().octomap.MaxAbsCoordinateM();
+    if (request.bounds->min().cwiseAbs().maxCoeff() > limit ||
+        request.bounds->max().cwiseAbs().maxCoeff() > limit) {
+      return Status::InvalidArgument(
+          "bounds: outside the OctoMap baseline's addressable volume, +-" +
+          std::to_string(limit) + " m on each axis around the world origin (2^15 voxels of " +
+          std::to_string(pipeline.options().octomap.resolution) + " m)");
+    }
+  }
   int64_t max_voxels = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);

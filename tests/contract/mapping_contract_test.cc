@@ -5,9 +5,11 @@
 // exact ground-truth poses.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <memory>
 #include <sstream>
@@ -716,6 +718,37 @@ TEST_F(MappingContractTest, BuildMapGridEqualsThePipelineGridOfTheSameKeyframes)
     EXPECT_GT(truth.Count(dataset::VoxelState::kOccupied), 100);
     EXPECT_TRUE(served->states() == truth.states()) << v1::MappingMethod_Name(method);
   }
+}
+
+// Resident memory of this process, MiB (Linux /proc/self/statm).
+double ResidentMiB() {
+  std::ifstream statm("/proc/self/statm");
+  long pages = 0, resident = 0;
+  statm >> pages >> resident;
+  return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1 << 20);
+}
+
+// A keyframe that adds no points costs its own data only, not a fixed overhead: 120 textureless
+// keyframes (a forced keyframe each, blank images) must not grow the process by a stereo pair
+// each (0.7 MB: 84 MB for 120).
+TEST_F(MappingContractTest, KeyframesWithoutPointsCostAlmostNothing) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  const Data& data = TestData();
+  v1::InsertKeyframeRequest request = KeyframeRequest(0, true);
+  const cv::Mat blank(data.frames[0].left.size(), CV_8UC1, cv::Scalar(128));
+  SetImage(blank, request.mutable_stereo()->mutable_left());
+  SetImage(blank, request.mutable_stereo()->mutable_right());
+  auto insert = [&](int i) {
+    request.mutable_stereo()->set_t_ns(data.frames[0].t_ns + i);
+    request.mutable_t_world_body()->mutable_position()->set_x(0.01 * i);
+    return Insert(request);
+  };
+  for (int i = 0; i < 20; ++i) ASSERT_TRUE(insert(i).ok());  // warm-up: allocator pools
+  const double before = ResidentMiB();
+  for (int i = 20; i < 140; ++i) ASSERT_TRUE(insert(i).ok());
+  const double grown = ResidentMiB() - before;
+  std::printf("120 keyframes without points: +%.1f MiB resident\n", grown);
+  EXPECT_LT(grown, 12.0);
 }
 
 TEST(MapperTest, LiveFramesWithGroundTruthBecomeKeyframes) {

@@ -61,8 +61,12 @@ enum class StereoMatcherType {
 };
 
 struct OctomapMapperOptions {
-  // Octree leaf size [m]; the paper's and our evaluation grids use 5 cm.
+  // Octree leaf size [m]; the paper's and our evaluation grids use 5 cm. OctoMap addresses
+  // 2^16 leaves per axis centred on the world origin, so the map covers +-2^15 * resolution
+  // (+-1638.4 m at 5 cm) on each axis: MaxAbsCoordinateM().
   double resolution = 0.05;
+
+  double MaxAbsCoordinateM() const { return 32768.0 * resolution; }
   // Rays are truncated at this range [m]. Why 5 m: stereo depth noise grows quadratically,
   // sigma_Z = Z^2 sigma_d / (fx b); with EuRoC's fx b ~ 458 px * 0.11 m ~ 50 px m and a quarter-
   // pixel disparity error, sigma_Z is 0.12 m (2.5 voxels) at 5 m and 0.31 m at 8 m, so farther

@@ -186,8 +186,25 @@ Status Localizer::SubmitLive(StereoInput input) {
 Result<RigPose> Localizer::Process(StereoInput input, const Termination& deadline) {
   MAV_RETURN_IF_ERROR(CheckInput(input, "stereo"));
   MAV_RETURN_IF_ERROR(deadline.Check("ProcessStereoPair"));
+  const int64_t t_ns = input.t_ns;
+  bool had_accepted = false;
+  int64_t previous_t_ns = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    had_accepted = have_accepted_;
+    previous_t_ns = last_accepted_t_ns_;
+  }
   Ticket<Result<RigPose>> ticket = Submit(std::move(input), QueuePolicy::kReject, deadline);
-  return ticket.Wait(deadline);
+  Result<RigPose> pose = ticket.Wait(deadline);
+  if (ticket.accepted() && !ticket.ran()) {
+    // Withdrawn: the frame changed nothing, so a retry of the same time stamp is welcome.
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (have_accepted_ && last_accepted_t_ns_ == t_ns) {
+      have_accepted_ = had_accepted;
+      last_accepted_t_ns_ = previous_t_ns;
+    }
+  }
+  return pose;
 }
 
 // On the worker: the odometry is ours.

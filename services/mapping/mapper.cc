@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 #include <utility>
 
 #include "mav/common/log.h"
@@ -280,6 +281,14 @@ Result<KeyframeResult> Mapper::InsertKeyframe(FrameInput frame, const geometry::
   MAV_RETURN_IF_ERROR(CheckInput(frame, "stereo"));
   if (!Finite(T_world_body)) return Status::InvalidArgument("t_world_body: not finite");
   MAV_RETURN_IF_ERROR(deadline.Check("InsertKeyframe"));
+  // What this call changes before the worker integrates the keyframe, to undo if it never does.
+  struct Before {
+    bool have_keyframe;
+    int64_t last_keyframe_t_ns;
+    mapping::KeyframeSelector selector;
+  };
+  std::optional<Before> before;
+  const int64_t t_ns = frame.t_ns;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (building_) {
@@ -290,8 +299,9 @@ Result<KeyframeResult> Mapper::InsertKeyframe(FrameInput frame, const geometry::
                                        std::to_string(config_->max_keyframes) + " keyframes");
     }
     ++frames_seen_;
+    before = Before{have_keyframe_, last_keyframe_t_ns_, *selector_};
     have_keyframe_ = true;
-    last_keyframe_t_ns_ = frame.t_ns;
+    last_keyframe_t_ns_ = t_ns;
     if (!SelectLocked(T_world_body, force)) {
       KeyframeResult skipped;
       skipped.points_total = points_;
@@ -303,10 +313,16 @@ Result<KeyframeResult> Mapper::InsertKeyframe(FrameInput frame, const geometry::
       SubmitKeyframe(std::move(frame), T_world_body, QueuePolicy::kReject, deadline);
   Result<KeyframeResult> result = ticket.Wait(deadline);
   if (!ticket.ran()) {
-    // Refused, withdrawn or discarded: the keyframe was never integrated. (A keyframe that ran
-    // and failed was uncounted by ProcessKeyframe.)
+    // Refused, withdrawn or discarded: the keyframe was never integrated, so the call changes
+    // nothing (a retry of the same frame is welcome). A keyframe that ran and failed was
+    // uncounted by ProcessKeyframe.
     std::lock_guard<std::mutex> lock(mutex_);
     --keyframes_selected_;
+    if (have_keyframe_ && last_keyframe_t_ns_ == t_ns) {
+      have_keyframe_ = before->have_keyframe;
+      last_keyframe_t_ns_ = before->last_keyframe_t_ns;
+      selector_ = before->selector;
+    }
   }
   return result;
 }
@@ -452,10 +468,11 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(const BuildRequest& request,
     const double limit = pipeline.options().octomap.MaxAbsCoordinateM();
     if (request.bounds->min().cwiseAbs().maxCoeff() > limit ||
         request.bounds->max().cwiseAbs().maxCoeff() > limit) {
-      return Status::InvalidArgument(
-          "bounds: outside the OctoMap baseline's addressable volume, +-" +
-          std::to_string(limit) + " m on each axis around the world origin (2^15 voxels of " +
-          std::to_string(pipeline.options().octomap.resolution) + " m)");
+      std::ostringstream message;
+      message << "bounds: outside the OctoMap baseline's addressable volume, +-" << limit
+              << " m on each axis around the world origin (2^15 voxels of "
+              << pipeline.options().octomap.resolution << " m)";
+      return Status::InvalidArgument(message.str());
     }
   }
   int64_t max_voxels = 0;

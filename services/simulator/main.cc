@@ -36,7 +36,7 @@ int main(int argc, char** argv) {
     request.frames = frames;
     auto source = !preset.empty() ? mav::sim::OpenPreset(request) : mav::sim::OpenEuroc(euroc);
     if (!source.ok()) return runner.Fail(source.status());
-    service.player().Load(std::move(*source));
+    if (mav::Status s = service.player().Load(std::move(*source)); !s.ok()) return runner.Fail(s);
   }
   return runner.Serve({&service}, {mav::v1::Simulator::service_full_name()},
                       [&] { service.player().Shutdown(); });

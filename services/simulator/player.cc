@@ -76,9 +76,10 @@ void Player::RewindLocked() {
   next_gt_ = 0;
 }
 
-void Player::Load(std::shared_ptr<const ScenarioSource> source) {
+Status Player::Load(std::shared_ptr<const ScenarioSource> source, const Termination& deadline) {
   MAV_CHECK(source != nullptr);
   std::lock_guard<std::mutex> command(command_mutex_);
+  MAV_RETURN_IF_ERROR(deadline.Check("LoadScenario"));
   queue_.Reset("a new scenario was loaded");
   auto prefetcher = std::make_shared<sim::FramePrefetcher>(source, /*threads=*/2, /*depth=*/4);
   std::shared_ptr<sim::FramePrefetcher> old;
@@ -98,6 +99,7 @@ void Player::Load(std::shared_ptr<const ScenarioSource> source) {
     MAV_LOG(kInfo) << "loaded " << source_->info().name << ": " << source_->info().frames
                    << " frames, " << source_->info().imu_samples << " IMU samples";
   }
+  return Status::Ok();
 }
 
 Result<PlayerStatus> Player::Start(const Pacing& pacing) {

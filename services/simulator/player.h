@@ -97,8 +97,10 @@ class Player {
   Player(const Player&) = delete;
   Player& operator=(const Player&) = delete;
 
-  // Stops a running playback, replaces the scenario, state LOADED.
-  void Load(std::shared_ptr<const ScenarioSource> source);
+  // Stops a running playback, replaces the scenario, state LOADED. DEADLINE_EXCEEDED (the old
+  // scenario stays) when `deadline` stops while an earlier command (a long Step) holds the
+  // player.
+  Status Load(std::shared_ptr<const ScenarioSource> source, const Termination& deadline = {});
   // FailedPrecondition when IDLE or RUNNING; InvalidArgument for a bad pacing.
   Result<PlayerStatus> Start(const Pacing& pacing);
   // FailedPrecondition unless RUNNING. Returns after the frame in flight.

@@ -48,7 +48,7 @@ grpc::Status SimulatorService::LoadScenario(grpc::ServerContext* context,
   // Opening a preset takes a while: a client that gave up meanwhile must not replace the scenario.
   if (Status s = CheckDeadline(*context, "LoadScenario"); !s.ok()) return ToGrpcStatus(s);
   std::shared_ptr<const ScenarioSource> shared = std::move(*source);
-  player_.Load(shared);
+  if (Status s = player_.Load(shared, CallTermination(*context)); !s.ok()) return ToGrpcStatus(s);
   ToProto(shared->info(), response->mutable_scenario());
   return grpc::Status::OK;
 }

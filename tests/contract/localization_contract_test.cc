@@ -402,7 +402,7 @@ TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
   preset.frames = 5;
   auto source = sim::OpenPreset(preset);
   ASSERT_TRUE(source.ok()) << source.status().ToString();
-  simulator.player().Load(std::move(*source));
+  ASSERT_TRUE(simulator.player().Load(std::move(*source)).ok());
   v1::LocalizationStatus configured;
   status = Configure(request, &configured);
   ASSERT_TRUE(status.ok()) << status.error_message();
@@ -651,6 +651,63 @@ TEST_F(LocalizationContractTest, AFullQueueRejectsUnaryRequestsAndDropsLiveFrame
   EXPECT_EQ(status.frames_dropped(), 2u);
   EXPECT_EQ(status.frames_rejected(), 1u);
   EXPECT_EQ(status.last_pose().t_ns(), TestFrames().scenario.FrameTimeNs(5));
+}
+
+// A value echoed into an error is cut: a 10 KB field name stays INVALID_ARGUMENT (gRPC refuses
+// metadata above ~8 KB and would have turned it into RESOURCE_EXHAUSTED).
+TEST_F(LocalizationContractTest, AHugeInvalidValueIsStillInvalidArgumentWithAShortMessage) {
+  auto request = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_PIXEL);
+  request.set_output_frame(std::string(10000, 'x'));
+  auto channel = grpc::CreateChannel(server_->target(), grpc::InsecureChannelCredentials());
+  auto stub = v1::Localization::NewStub(channel);
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::LocalizationStatus status;
+  const grpc::Status rpc = stub->Configure(&context, request, &status);
+  ExpectInvalid(rpc, "output_frame:");
+  EXPECT_LT(rpc.error_message().size(), 2200u);
+}
+
+// A calibration source that answers but is no simulator: UNAVAILABLE with a reason.
+TEST_F(LocalizationContractTest, ACalibrationSourceThatIsNoSimulatorGivesAReason) {
+  auto request = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_PIXEL);
+  request.mutable_calibration()->set_simulator_address(server_->target());  // a localization
+  const grpc::Status rpc = Configure(request);
+  EXPECT_EQ(rpc.error_code(), StatusCode::UNAVAILABLE);
+  EXPECT_TRUE(StartsWith(rpc.error_message(), "calibration.simulator_address: GetCalibration at "))
+      << rpc.error_message();
+  EXPECT_NE(rpc.error_message().find("UNIMPLEMENTED"), std::string::npos) << rpc.error_message();
+}
+
+// Calls whose deadline passes while the worker is busy change nothing: the frame is withdrawn,
+// the configuration stays.
+TEST_F(LocalizationContractTest, CallsPastTheirDeadlineChangeNothing) {
+  ASSERT_TRUE(Configure(ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_PIXEL)).ok());
+  sink_.SetBlocking(true);  // the worker stops inside the first frame's publish
+  auto first = std::async(std::launch::async, [&] { return Process(PairRequest(0)); });
+  ASSERT_TRUE(sink_.WaitUntilBlocked(std::chrono::seconds(20)));
+  {
+    grpc::ClientContext context;
+    SetDeadline(&context, 0.3);
+    v1::ProcessStereoPairResponse response;
+    const grpc::Status late = stub_->ProcessStereoPair(&context, PairRequest(1), &response);
+    EXPECT_EQ(late.error_code(), StatusCode::DEADLINE_EXCEEDED) << late.error_message();
+  }
+  std::future<grpc::Status> configure = std::async(std::launch::async, [&] {
+    grpc::ClientContext context;
+    SetDeadline(&context, 0.3);
+    v1::LocalizationStatus status;
+    return stub_->Configure(&context, ConfigureRequest(v1::LOCALIZATION_METHOD_DENSE), &status);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  sink_.SetBlocking(false);
+  EXPECT_TRUE(first.get().ok());
+  EXPECT_EQ(configure.get().error_code(), StatusCode::DEADLINE_EXCEEDED);
+  const v1::LocalizationStatus status = GetStatus();
+  EXPECT_EQ(status.method(), v1::LOCALIZATION_METHOD_SPARSE_PIXEL) << "the late Configure applied";
+  EXPECT_EQ(status.frames_processed(), 1u) << "the late frame was processed";
+  // The withdrawn frame's time stamp may come again (a retry), and is accepted.
+  EXPECT_TRUE(Process(PairRequest(1)).ok());
 }
 
 // ---- GetTrajectory / Reset ----------------------------------------------------------------------

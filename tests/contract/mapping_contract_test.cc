@@ -720,6 +720,82 @@ TEST_F(MappingContractTest, BuildMapGridEqualsThePipelineGridOfTheSameKeyframes)
   }
 }
 
+// The documented box limit fits the transport: 50 000 full boxes through a real port (~3 MB,
+// under gRPC's 4 MiB), each answered.
+TEST_F(MappingContractTest, FiftyThousandBoxesFitOneCallOverARealPort) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  for (size_t i = 0; i < 4; ++i) ASSERT_TRUE(Insert(KeyframeRequest(i, true)).ok());
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  build.set_resolution_m(0.1);
+  ASSERT_TRUE(Build(build).ok());
+  v1::QueryCollisionRequest query;
+  for (int i = 0; i < 50000; ++i) {
+    const double x = -3.0 + 6.0 * (i % 100) / 100.0, y = -3.0 + 6.0 * (i / 100 % 100) / 100.0;
+    const double z = 1.0 + 0.25 * (i / 10000);
+    *query.add_boxes() = MakeBox(x, y, z, x + 0.31, y + 0.29, z + 0.2);
+  }
+  auto stub = v1::Mapping::NewStub(
+      grpc::CreateChannel(server_->target(), grpc::InsecureChannelCredentials()));
+  grpc::ClientContext context;
+  context.set_deadline(Deadline(30));
+  v1::QueryCollisionResponse response;
+  const grpc::Status rpc = stub->QueryCollision(&context, query, &response);
+  ASSERT_TRUE(rpc.ok()) << rpc.error_message();
+  EXPECT_EQ(response.states_size(), 50000);
+  EXPECT_EQ(response.collisions() + response.free() + response.unknown(), 50000u);
+}
+
+// BuildMap bounds: a huge box is refused before anything is allocated and the message starts
+// with the field; OctoMap's addressable volume (+-1638.4 m at 5 cm) is checked by name.
+TEST_F(MappingContractTest, BuildMapBoundsAreCheckedNamingTheField) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  for (size_t i = 0; i < 3; ++i) ASSERT_TRUE(Insert(KeyframeRequest(i, true)).ok());
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  *build.mutable_bounds() = MakeBox(-1e15, -1e15, -1e15, 1e15, 1e15, 1e15);
+  grpc::Status rpc = Build(build);
+  EXPECT_EQ(rpc.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(rpc.error_message().rfind("bounds: the grid would have", 0), 0u) << rpc.error_message();
+  build.set_method(v1::MAPPING_METHOD_OCTOMAP);
+  for (const v1::Box& box :
+       {MakeBox(2000, 2000, 0, 2001, 2001, 1), MakeBox(-1e15, -1e15, -1e15, 1e15, 1e15, 1e15)}) {
+    *build.mutable_bounds() = box;
+    rpc = Build(build);
+    EXPECT_EQ(rpc.error_code(), StatusCode::INVALID_ARGUMENT);
+    EXPECT_EQ(rpc.error_message().rfind(
+                  "bounds: outside the OctoMap baseline's addressable volume, +-1638.4 m", 0),
+              0u)
+        << rpc.error_message();
+  }
+}
+
+// An InsertKeyframe whose deadline passes while it waits changes nothing: not integrated, not
+// counted, and the same frame may be sent again.
+TEST_F(MappingContractTest, AnInsertPastItsDeadlineChangesNothing) {
+  ASSERT_TRUE(StartSession(SessionRequest()).ok());
+  // Another client keeps the worker busy, keyframe after keyframe (~100 ms each).
+  std::thread other([this] {
+    for (size_t i = 0; i < 6; ++i) EXPECT_TRUE(Insert(KeyframeRequest(i, true)).ok());
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  // Later than all of the other client's frames, and it waits behind the one in progress.
+  v1::InsertKeyframeRequest late = KeyframeRequest(9, true);
+  grpc::ClientContext context;
+  context.set_deadline(Deadline(0.02));
+  v1::InsertKeyframeResponse response;
+  const grpc::Status rpc = stub_->InsertKeyframe(&context, late, &response);
+  other.join();
+  EXPECT_EQ(rpc.error_code(), StatusCode::DEADLINE_EXCEEDED) << rpc.error_message();
+  grpc::ClientContext status_context;
+  v1::MappingStatus status;
+  ASSERT_TRUE(stub_->GetStatus(&status_context, v1::MappingGetStatusRequest(), &status).ok());
+  EXPECT_EQ(status.keyframes(), 6u);
+  // The retry is accepted.
+  ASSERT_TRUE(Insert(late, &response).ok());
+  EXPECT_TRUE(response.accepted());
+}
+
 // Resident memory of this process, MiB (Linux /proc/self/statm).
 double ResidentMiB() {
   std::ifstream statm("/proc/self/statm");

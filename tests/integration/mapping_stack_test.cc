@@ -320,7 +320,21 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
     EXPECT_GT(octomap.occupancy().occupied_voxels(), 1000u);
   }
 
-  stack.Process("mav-mapping")->Signal(SIGTERM);
+  // SIGTERM during a build: the server drains (5 s grace) and the client gets its map.
+  {
+    v1::BuildMapRequest slow = build;
+    slow.set_resolution_m(0.025);  // ~30 M voxels to paint: seconds
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(60));
+    v1::BuildMapResponse response;
+    grpc::Status rpc;
+    std::thread client([&] { rpc = map->BuildMap(&context, slow, &response); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    stack.Process("mav-mapping")->Signal(SIGTERM);
+    client.join();
+    EXPECT_TRUE(rpc.ok()) << "the build in flight must reach its client: " << rpc.error_message();
+    EXPECT_EQ(response.keyframes(), built.keyframes());
+  }
   EXPECT_EQ(stack.Process("mav-mapping")->Wait(std::chrono::seconds(10)), std::optional<int>(0))
       << "see " << stack.Log("mav-mapping");
   stack.Process("mav-simulator")->Signal(SIGTERM);

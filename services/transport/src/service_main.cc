@@ -1,5 +1,7 @@
 #include "mav/transport/service_main.h"
 
+#include <malloc.h>
+
 #include <cstdlib>
 #include <iostream>
 
@@ -13,9 +15,12 @@ namespace {
 constexpr int64_t kDefaultShutdownGraceMs = 5000;
 }  // namespace
 
+void UseMappedLargeBlocks() { mallopt(M_MMAP_THRESHOLD, 128 * 1024); }
+
 ServiceRunner::ServiceRunner(ServiceInfo info)
     : info_(std::move(info)), flags_(info_.program, info_.description) {
   BlockShutdownSignals();
+  UseMappedLargeBlocks();
   server_options_.port = info_.default_port;
   server_options_.shutdown_grace_ms = kDefaultShutdownGraceMs;
   AddServerFlags(&flags_, &server_options_, info_.port_env);

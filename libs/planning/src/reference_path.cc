@@ -204,4 +204,43 @@ Result<ReferencePath> ShortestReferencePath(const PlanningMap& map, const Eigen:
   return out;
 }
 
+Result<std::vector<EvaluationQuery>> RandomQueries(const PlanningMap& map,
+                                                   const RandomQueryOptions& options,
+                                                   const Termination& stop) {
+  std::mt19937_64 rng(options.seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  const Box& b = map.bounds();
+  const double z0 = std::max(b.min.z(), options.min_z_m), z1 = std::min(b.max.z(), options.max_z_m);
+  std::vector<EvaluationQuery> out;
+  int blocked = 0, free = 0;
+  for (int candidate = 0; candidate < options.max_candidates; ++candidate) {
+    if (blocked >= options.blocked && free >= options.free) break;
+    MAV_RETURN_IF_ERROR(stop.Check("random queries"));
+    EvaluationQuery q;
+    for (Eigen::Vector3d* p : {&q.start, &q.goal}) {
+      *p = Eigen::Vector3d(b.min.x() + u(rng) * b.size().x(), b.min.y() + u(rng) * b.size().y(),
+                           z0 + u(rng) * (z1 - z0));
+    }
+    const double d = (q.goal - q.start).norm();
+    if (d < options.min_distance_m || d > options.max_distance_m) continue;
+    if (!map.IsValid(q.start) || !map.IsValid(q.goal)) continue;
+    q.straight_line_free = map.IsSegmentValid(q.start, q.goal, map.robot_radius());
+    if (q.straight_line_free ? free >= options.free : blocked >= options.blocked) continue;
+    if (options.reference_expansions > 0) {
+      ReferenceOptions ro;
+      ro.max_expansions = options.reference_expansions;
+      Result<ReferencePath> reference = ShortestReferencePath(map, q.start, q.goal, ro, stop);
+      if (!reference.ok()) {
+        if (reference.status().code() == StatusCode::kResourceExhausted) continue;
+        return reference.status();
+      }
+      if (!reference->found) continue;
+      q.reference_length_m = reference->length_m;
+    }
+    (q.straight_line_free ? free : blocked)++;
+    out.push_back(q);
+  }
+  return out;
+}
+
 }  // namespace mav::planning

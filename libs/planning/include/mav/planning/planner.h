@@ -64,8 +64,8 @@ struct PlanRequest {
   uint64_t seed = 0;
   geometry::YawPolicy yaw_policy = geometry::YawPolicy::kConstant;
   double start_yaw_rad = 0;
-  // Roadmap milestones each point is tried against (nearest first). 30: PRM*'s own k for
-  // ~30 k milestones is 3.62 ln(30000) = 37. Validated [1, 1000].
+  // Roadmap milestones each point is tried against (nearest first; more when none is
+  // visible). 30: PRM*'s own k for 100 k milestones is 3.62 ln(1e5) = 42. Validated [1, 1000].
   int connection_candidates = 30;
 
   bool IsValid(std::string* why) const;
@@ -122,7 +122,7 @@ struct OmplPeerOptions {
   double time_budget_s = 0.75;
   // Clearance kept beyond the robot radius by the planner and the simplifier, m (as the
   // roadmap's clearance_margin_m, so the spline gets the same room). Validated [0, 1].
-  double clearance_margin_m = 0.1;
+  double clearance_margin_m = 0.05;
   uint64_t seed = 1;
 
   bool IsValid(std::string* why) const;

@@ -13,6 +13,7 @@
 // same clearance (it is a valid path); on open maps it is within about 1 % of it.
 
 #include <cstdint>
+#include <random>
 #include <vector>
 
 #include <Eigen/Core>
@@ -46,5 +47,39 @@ Result<ReferencePath> ShortestReferencePath(const PlanningMap& map, const Eigen:
                                             const Eigen::Vector3d& b,
                                             const ReferenceOptions& options = {},
                                             const Termination& stop = {});
+
+// A query of the evaluation sets (mav-eval planning, the benchmark, the statistical test).
+struct EvaluationQuery {
+  Eigen::Vector3d start = Eigen::Vector3d::Zero();
+  Eigen::Vector3d goal = Eigen::Vector3d::Zero();
+  bool straight_line_free = false;  // the straight segment keeps the robot radius
+  double reference_length_m = 0;    // ShortestReferencePath's length (0 when not computed)
+};
+
+struct RandomQueryOptions {
+  uint64_t seed = 1;
+  int blocked = 15;  // queries whose straight line is blocked
+  int free = 15;     // queries whose straight line is free
+  double min_distance_m = 20;
+  double max_distance_m = 40;
+  // Heights the ends are drawn from, m (the power plant's structures stand below ~25 m; above
+  // them every straight line is free).
+  double min_z_m = 1;
+  double max_z_m = 25;
+  // Only queries the reference connects within this many expansions (0 = keep every query, no
+  // reference length).
+  uint64_t reference_expansions = 500000;
+  // Give up after this many candidate pairs.
+  int max_candidates = 20000;
+};
+
+// Seeded random queries between valid states (uniform in x-y over the planning volume, z in
+// [min_z_m, max_z_m]) `min_distance_m`..`max_distance_m` apart, `blocked` of them with the
+// straight line blocked and `free` with it free, in the order drawn. With reference_expansions,
+// only queries that have a solution (proven by the reference) are kept, each with its reference
+// length. Fewer than asked when max_candidates runs out.
+Result<std::vector<EvaluationQuery>> RandomQueries(const PlanningMap& map,
+                                                   const RandomQueryOptions& options,
+                                                   const Termination& stop = {});
 
 }  // namespace mav::planning

@@ -38,4 +38,15 @@ struct PaperMappingRow {
 
 const std::array<PaperMappingRow, 3>& PaperMapping();
 
+// Section 3's planning figures: "Paths of 35 m are planned in 0.75 s and can be safely executed
+// in 7.55-8.8 s with average speeds of 4.2 m/s and peak speeds of 7.70 m/s".
+struct PaperPlanning {
+  double path_m = 35;
+  double planning_s = 0.75;
+  double flight_min_s = 7.55;
+  double flight_max_s = 8.8;
+  double mean_speed_mps = 4.2;
+  double peak_speed_mps = 7.7;
+};
+
 }  // namespace mav::eval_cli

@@ -192,6 +192,33 @@ TEST(SpeedPlanTest, TheSplineKeepsTheClearanceAroundTheWall) {
   ExpectWithinLimits(result->trajectory, SpeedLimits{});
 }
 
+TEST(SpeedPlanTest, ViolationsAreRepairedNotReturned) {
+  const auto map = testing::RoomMap();
+  ASSERT_NE(map, nullptr);
+  // Corners hugging the wall's end at 0.55 m, arcs allowed down to the radius itself and knots
+  // 1.5 s apart: the first spline strays closer than 0.5 m; the repairs (closer knots, lower
+  // speed, smaller arcs) must bring it back, and what comes back keeps the radius everywhere.
+  const std::vector<Eigen::Vector3d> path = {
+      {1.5, 1.0, 3.5}, {3.45, 7.55, 3.5}, {6.55, 7.55, 3.5}, {8.5, 1.0, 3.5}};
+  TrajectoryOptions options;
+  options.corner_clearance_m = 0.5005;
+  options.knot_interval_s = 1.5;
+  auto result = PlanTrajectory(*map, path, {}, options);
+  ASSERT_TRUE(result.ok()) << result.status().ToString();
+  EXPECT_GT(result->refits, 0);
+  double worst = 1e9;
+  for (double t = 0; t <= result->duration_s; t += 0.0005) {
+    worst = std::min(worst, map->Clearance(result->trajectory.Evaluate(t).position));
+  }
+  EXPECT_GE(worst, 0.5 - 1e-3);  // at the 1 cm check steps >= 0.5 exactly; between, 0.5 mm less
+  EXPECT_GE(result->min_clearance_m, 0.5);
+  // With no repairs allowed the same input is refused, not returned.
+  options.max_refits = 0;
+  auto refused = PlanTrajectory(*map, path, {}, options);
+  EXPECT_EQ(refused.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(refused.status().message().find("closer than"), std::string::npos);
+}
+
 TEST(SpeedPlanTest, OptionsNameTheField) {
   TrajectoryOptions options;
   options.limits.max_speed_mps = 0;

@@ -16,6 +16,10 @@ namespace {
 using geometry::PolynomialSegment;
 using geometry::PolynomialTrajectory;
 
+// Above this ratio of the limits the trajectory is slowed where it exceeds them and refitted;
+// below it (or after the last repair) it is slowed uniformly.
+constexpr double kUniformScaleRatio = 1.01;
+
 // ---- The C4 quintic spline ------------------------------------------------------------------
 
 // Jerk and snap at both ends of a quintic Hermite segment of duration T as linear functions of
@@ -54,47 +58,85 @@ Eigen::Matrix<double, 6, 1> HermiteQuintic(double T, double p0, double v0, doubl
 
 // ---- The rounded path -----------------------------------------------------------------------
 
+// How long the lateral acceleration takes to build up on the way into a corner, s: the
+// curvature ramps over this time at the corner's speed (an Euler spiral), so the spline, which
+// cannot follow a jump of the curvature, does not overshoot it.
+constexpr double kRampTimeS = 0.5;
+
+// The curve rounding a corner: in the corner's plane the curvature ramps linearly from 0 to
+// kappa over `ramp` metres, stays kappa, and ramps back; sampled every `step` of arc length.
+struct CornerCurve {
+  std::vector<Eigen::Vector3d> points;
+  double step = 0, length = 0, kappa = 0, ramp = 0;
+
+  double Curvature(double sigma) const {
+    const double from_end = std::min(sigma, length - sigma);
+    return ramp > 0 && from_end < ramp ? kappa * std::max(0.0, from_end) / ramp : kappa;
+  }
+  Eigen::Vector3d At(double sigma) const {
+    const double f = std::clamp(sigma / step, 0.0, static_cast<double>(points.size() - 1));
+    const size_t i = std::min(static_cast<size_t>(f), points.size() - 2);
+    return points[i] + (f - i) * (points[i + 1] - points[i]);
+  }
+};
+
 struct Piece {
-  bool arc = false;
+  bool curve = false;
   double s0 = 0, length = 0;
   Eigen::Vector3d a = Eigen::Vector3d::Zero(), b = Eigen::Vector3d::Zero();  // line
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero(), e1 = Eigen::Vector3d::Zero(),
-                  u1 = Eigen::Vector3d::Zero();  // arc: centre + R (cos phi e1 + sin phi u1)
-  double radius = 0, angle = 0;
-  int corner = -1;  // the polyline vertex an arc rounds
+  const CornerCurve* corner_curve = nullptr;                                 // curve
+  int corner = -1;  // the polyline vertex a curve rounds
 };
 
 struct Corner {
   enum Kind { kStop, kStraight, kArc };
-  Kind kind = kStop;   // a stop (the ends, waypoints, corners no arc fits), straight on, an arc
-  double tangent = 0;  // distance of the arc's tangent points from the vertex
-  double radius = 0;
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero(), e1 = Eigen::Vector3d::Zero(),
-                  u1 = Eigen::Vector3d::Zero();
-  double angle = 0;
+  Kind kind = kStop;   // a stop (the ends, waypoints, corners no curve fits), straight on, a curve
+  double tangent = 0;  // distance of the curve's ends from the vertex, along the segments
+  double radius = 0;   // at its middle, 1 / kappa
+  CornerCurve curve;
 };
 
-Eigen::Vector3d ArcPoint(const Eigen::Vector3d& centre, const Eigen::Vector3d& e1,
-                         const Eigen::Vector3d& u1, double radius, double phi) {
-  return centre + radius * (std::cos(phi) * e1 + std::sin(phi) * u1);
-}
-
-// The arc rounding vertex b between a and c with tangent points `tangent` from b.
+// The curve rounding vertex b between a and c with radius `radius` at its middle and a ramp of
+// `ramp` metres at either end (capped so the ramps alone do not turn more than the corner).
 Corner MakeCorner(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                  double tangent) {
+                  double radius, double ramp) {
   Corner k;
   k.kind = Corner::kArc;
+  k.radius = radius;
   const Eigen::Vector3d u1 = (b - a).normalized(), u2 = (c - b).normalized();
   const double angle = std::acos(std::clamp(u1.dot(u2), -1.0, 1.0));
-  k.angle = angle;
-  k.tangent = tangent;
-  k.radius = tangent / std::tan(0.5 * angle);
-  const Eigen::Vector3d t1 = b - tangent * u1;
-  // Towards the centre: perpendicular to u1 in the corner's plane, on the side of u2.
+  // Towards the inside: perpendicular to u1 in the corner's plane, on the side of u2.
   const Eigen::Vector3d inward = (u2 - u1.dot(u2) * u1).normalized();
-  k.centre = t1 + k.radius * inward;
-  k.e1 = -inward;
-  k.u1 = u1;
+  CornerCurve& curve = k.curve;
+  curve.kappa = 1.0 / radius;
+  curve.ramp = std::min(ramp, angle * radius);
+  const double middle = angle * radius - curve.ramp;  // the constant-curvature part
+  curve.length = 2 * curve.ramp + middle;
+  const int steps = std::max(8, static_cast<int>(std::ceil(curve.length / 0.02)));
+  curve.step = curve.length / steps;
+  // Heading along the curve in closed form, positions by the midpoint rule, in the corner's
+  // frame (x along u1, y inwards), starting at the origin.
+  const auto heading = [&](double sigma) {
+    const double kappa = curve.kappa, r = curve.ramp;
+    if (sigma <= r) return r > 0 ? 0.5 * kappa * sigma * sigma / r : 0.0;
+    if (sigma <= r + middle) return 0.5 * kappa * r + kappa * (sigma - r);
+    const double rest = curve.length - sigma;
+    return angle - (r > 0 ? 0.5 * kappa * rest * rest / r : 0.0);
+  };
+  std::vector<Eigen::Vector2d> local(steps + 1, Eigen::Vector2d::Zero());
+  for (int i = 0; i < steps; ++i) {
+    const double phi = heading((i + 0.5) * curve.step);
+    local[i + 1] = local[i] + curve.step * Eigen::Vector2d(std::cos(phi), std::sin(phi));
+  }
+  // The vertex: where the end's tangent line meets the x axis; the curve is symmetric, so its
+  // start is as far before the vertex as its end is after.
+  const Eigen::Vector2d end = local.back();
+  k.tangent = end.x() - end.y() / std::tan(angle);
+  const Eigen::Vector3d start = b - k.tangent * u1;
+  curve.points.resize(steps + 1);
+  for (int i = 0; i <= steps; ++i) {
+    curve.points[i] = start + local[i].x() * u1 + local[i].y() * inward;
+  }
   return k;
 }
 
@@ -111,16 +153,18 @@ struct RoundedPath {
   Eigen::Vector3d Position(double s) const {
     const Piece& p = PieceAt(s);
     const double u = std::clamp(s - p.s0, 0.0, p.length);
-    if (!p.arc) return p.length > 0 ? Eigen::Vector3d(p.a + (p.b - p.a) * (u / p.length)) : p.a;
-    return ArcPoint(p.centre, p.e1, p.u1, p.radius, u / p.radius);
+    if (p.curve) return p.corner_curve->At(u);
+    return p.length > 0 ? Eigen::Vector3d(p.a + (p.b - p.a) * (u / p.length)) : p.a;
   }
   double Radius(double s) const {
     const Piece& p = PieceAt(s);
-    return p.arc ? p.radius : std::numeric_limits<double>::infinity();
+    const double kappa = p.curve ? p.corner_curve->Curvature(s - p.s0) : 0.0;
+    return kappa > 0 ? 1.0 / kappa : std::numeric_limits<double>::infinity();
   }
 };
 
 // The rounded path of `path` with the corners `corners` (one per vertex; the ends are stops).
+// The pieces point into `corners`, which must outlive the result.
 RoundedPath BuildRoundedPath(const std::vector<Eigen::Vector3d>& path,
                              const std::vector<Corner>& corners) {
   RoundedPath r;
@@ -128,10 +172,10 @@ RoundedPath BuildRoundedPath(const std::vector<Eigen::Vector3d>& path,
   double s = 0;
   r.stop_s.push_back(0);
   for (size_t i = 0; i + 1 < n; ++i) {
-    const Eigen::Vector3d u = (path[i + 1] - path[i]).normalized();
     Piece line;
-    line.a = path[i] + corners[i].tangent * u;
-    line.b = path[i + 1] - corners[i + 1].tangent * u;
+    line.a = corners[i].kind == Corner::kArc ? corners[i].curve.points.back() : path[i];
+    line.b =
+        corners[i + 1].kind == Corner::kArc ? corners[i + 1].curve.points.front() : path[i + 1];
     line.s0 = s;
     line.length = (line.b - line.a).norm();
     s += line.length;
@@ -139,18 +183,14 @@ RoundedPath BuildRoundedPath(const std::vector<Eigen::Vector3d>& path,
     if (i + 2 == n) break;
     const Corner& k = corners[i + 1];
     if (k.kind == Corner::kArc) {
-      Piece arc;
-      arc.arc = true;
-      arc.centre = k.centre;
-      arc.e1 = k.e1;
-      arc.u1 = k.u1;
-      arc.radius = k.radius;
-      arc.angle = k.angle;
-      arc.s0 = s;
-      arc.length = k.radius * k.angle;
-      arc.corner = static_cast<int>(i + 1);
-      s += arc.length;
-      r.pieces.push_back(arc);
+      Piece curve;
+      curve.curve = true;
+      curve.corner_curve = &k.curve;
+      curve.s0 = s;
+      curve.length = k.curve.length;
+      curve.corner = static_cast<int>(i + 1);
+      s += curve.length;
+      r.pieces.push_back(curve);
     } else if (k.kind == Corner::kStop) {
       r.stop_s.push_back(s);
     }
@@ -162,16 +202,17 @@ RoundedPath BuildRoundedPath(const std::vector<Eigen::Vector3d>& path,
 
 // ---- The speed plan -------------------------------------------------------------------------
 
-// Where the repairs act: windows of arc length where the speed limit is cut and the knots are
-// closer together.
+// Where the repairs act: windows of arc length where the speed limit, the accelerations or the
+// knot spacing are cut (factors <= 1, multiplied where windows overlap).
 struct Window {
-  double s0, s1, speed_factor, knot_factor;
+  double s0, s1;
+  double speed = 1, knot = 1, accel = 1;
 };
 
-double Factor(const std::vector<Window>& windows, double s, bool knot) {
+double Factor(const std::vector<Window>& windows, double s, double Window::*factor) {
   double f = 1;
   for (const Window& w : windows) {
-    if (s >= w.s0 && s <= w.s1) f *= knot ? w.knot_factor : w.speed_factor;
+    if (s >= w.s0 && s <= w.s1) f *= w.*factor;
   }
   return f;
 }
@@ -211,39 +252,41 @@ SpeedProfile PlanSpeed(const RoundedPath& r, const SpeedLimits& limits,
   const double a_lat = 0.92 * limits.max_lateral_acceleration_mps2;
   const double jerk = limits.max_jerk_mps3;
   SpeedProfile p;
-  std::vector<double> v_lim, curvature, from_stop, to_stop;
+  std::vector<double> v_lim, curvature, from_stop, to_stop, accel_factor;
   for (size_t k = 0; k + 1 < r.stop_s.size(); ++k) {
     const double s0 = r.stop_s[k], s1 = r.stop_s[k + 1];
     const int steps = std::max(1, static_cast<int>(std::ceil((s1 - s0) / kStep)));
     for (int m = (k == 0 ? 0 : 1); m <= steps; ++m) {
       const double s = s0 + (s1 - s0) * m / steps;
       const double radius = r.Radius(s);
-      double lim = v_max * Factor(windows, s, false);
-      if (std::isfinite(radius)) lim = std::min(lim, std::sqrt(a_lat * radius));
+      const double accel = Factor(windows, s, &Window::accel);
+      double lim = v_max * Factor(windows, s, &Window::speed);
+      if (std::isfinite(radius)) lim = std::min(lim, std::sqrt(accel * a_lat * radius));
       if (m == 0 || m == steps) lim = 0;  // ends and stops
       p.s.push_back(s);
       v_lim.push_back(lim);
       curvature.push_back(std::isfinite(radius) ? 1.0 / radius : 0.0);
       from_stop.push_back(s - s0);
       to_stop.push_back(s1 - s);
+      accel_factor.push_back(accel);
     }
   }
   const size_t n = p.s.size();
   // What is left of the tangential acceleration at speed v on curvature kappa, `d` from a stop.
-  const auto tangential = [&](double v, double kappa, double d) {
-    const double lateral = v * v * kappa / a_lat;
+  const auto tangential = [&](double v, double kappa, double d, double f) {
+    const double lateral = v * v * kappa / (f * a_lat);
     const double ramp = std::cbrt(6 * jerk * jerk * std::max(d, 1e-4));
-    return std::min(ramp, a_long) * std::sqrt(std::max(0.0, 1.0 - lateral * lateral));
+    return std::min(ramp, f * a_long) * std::sqrt(std::max(0.0, 1.0 - lateral * lateral));
   };
   p.v = v_lim;
   for (size_t m = 0; m + 1 < n; ++m) {
     const double ds = p.s[m + 1] - p.s[m];
-    const double a = tangential(p.v[m], curvature[m], from_stop[m] + 0.5 * ds);
+    const double a = tangential(p.v[m], curvature[m], from_stop[m] + 0.5 * ds, accel_factor[m]);
     p.v[m + 1] = std::min(p.v[m + 1], std::sqrt(p.v[m] * p.v[m] + 2 * a * ds));
   }
   for (size_t m = n - 1; m > 0; --m) {
     const double ds = p.s[m] - p.s[m - 1];
-    const double a = tangential(p.v[m], curvature[m], to_stop[m] + 0.5 * ds);
+    const double a = tangential(p.v[m], curvature[m], to_stop[m] + 0.5 * ds, accel_factor[m]);
     p.v[m - 1] = std::min(p.v[m - 1], std::sqrt(p.v[m] * p.v[m] + 2 * a * ds));
   }
   p.t.assign(n, 0);
@@ -265,7 +308,7 @@ std::vector<double> KnotTimes(const RoundedPath& r, const SpeedProfile& p, doubl
     std::vector<double> local = {t0};
     while (local.back() < t1) {
       const double at = local.back();
-      local.push_back(at + interval * Factor(windows, p.SAt(at), true));
+      local.push_back(at + interval * Factor(windows, p.SAt(at), &Window::knot));
     }
     // Stretch so the last knot lands on the stop.
     const double scale = (t1 - t0) / (local.back() - t0);
@@ -287,45 +330,84 @@ PolynomialTrajectory TimeScaled(const PolynomialTrajectory& t, double k) {
 struct CheckResult {
   double max_speed = 0, max_acceleration = 0, length = 0;
   double limit_ratio = 0;  // max over samples of the limit ratios (speed, sqrt of accelerations)
-  double min_clearance = std::numeric_limits<double>::infinity();
-  std::vector<double> violation_times;
+  std::vector<double> violation_times;  // closer than the required clearance
+  // Samples over a limit: time, and the ratio of the speed and of the accelerations (>= 1 for the
+  // one exceeded; square roots for the accelerations).
+  struct Over {
+    double t, speed, accel;
+  };
+  std::vector<Over> over_limits;
   Eigen::Vector3d worst = Eigen::Vector3d::Zero();
+  std::vector<std::pair<double, Eigen::Vector3d>> samples;  // (clearance lower bound, position)
 };
 
+// Evaluates a trajectory at increasing times without searching for the segment each time.
+class Walker {
+ public:
+  explicit Walker(const PolynomialTrajectory& t) : t_(t) {}
+  // Position, velocity and (when `a` is given) acceleration at time `time` >= the last one.
+  void At(double time, Eigen::Vector3d* p, Eigen::Vector3d* v, Eigen::Vector3d* a) {
+    const auto& segments = t_.segments();
+    while (i_ + 1 < segments.size() && time >= start_ + segments[i_].duration_s) {
+      start_ += segments[i_].duration_s;
+      ++i_;
+    }
+    const double tau = std::clamp(time - start_, 0.0, segments[i_].duration_s);
+    const Eigen::Matrix<double, 3, 6>& c = segments[i_].coefficients;
+    for (int axis = 0; axis < 3; ++axis) {
+      (*p)[axis] = geometry::EvaluatePolynomial(c.row(axis).transpose(), tau, 0);
+      (*v)[axis] = geometry::EvaluatePolynomial(c.row(axis).transpose(), tau, 1);
+      if (a) (*a)[axis] = geometry::EvaluatePolynomial(c.row(axis).transpose(), tau, 2);
+    }
+  }
+
+ private:
+  const PolynomialTrajectory& t_;
+  size_t i_ = 0;
+  double start_ = 0;
+};
+
+// Clearance at spatial steps <= check_step (positions and speeds), limits every 5 ms.
 CheckResult CheckTrajectory(const ClearanceMap& map, const PolynomialTrajectory& traj,
                             const SpeedLimits& limits, double required, double check_step) {
+  constexpr double kLimitStep = 0.005;
   CheckResult r;
   const double duration = traj.duration_s();
   const double a_any = std::max(limits.max_acceleration_mps2, limits.max_lateral_acceleration_mps2);
-  Eigen::Vector3d previous = traj.Evaluate(0).position;
-  double t = 0;
+  Walker walker(traj);
+  Eigen::Vector3d p, v, a, previous = traj.Evaluate(0).position;
+  double t = 0, next_limit_t = 0;
   bool last = false;
-  std::vector<std::pair<double, Eigen::Vector3d>> candidates;  // (lower bound, sample)
   while (true) {
-    const Eigen::Vector3d p = traj.EvaluateDerivative(t, 0);
-    const Eigen::Vector3d v = traj.EvaluateDerivative(t, 1);
-    const Eigen::Vector3d a = traj.EvaluateDerivative(t, 2);
+    const bool limits_now = t >= next_limit_t || last;
+    walker.At(t, &p, &v, limits_now ? &a : nullptr);
     const double speed = v.norm();
     r.max_speed = std::max(r.max_speed, speed);
-    r.max_acceleration = std::max(r.max_acceleration, a.norm());
     r.length += (p - previous).norm();
     previous = p;
-    double ratio = speed / limits.max_speed_mps;
-    if (speed > 0.3) {
-      const Eigen::Vector3d dir = v / speed;
-      const double along = a.dot(dir);
-      const double across = (a - along * dir).norm();
-      ratio = std::max({ratio, std::sqrt(std::abs(along) / limits.max_acceleration_mps2),
-                        std::sqrt(across / limits.max_lateral_acceleration_mps2)});
-    } else {
-      ratio = std::max(ratio, std::sqrt(a.norm() / a_any));
+    if (limits_now) {
+      next_limit_t = t + kLimitStep;
+      r.max_acceleration = std::max(r.max_acceleration, a.norm());
+      const double speed_ratio = speed / limits.max_speed_mps;
+      double accel_ratio;
+      if (speed > 0.3) {
+        const Eigen::Vector3d dir = v / speed;
+        const double along = a.dot(dir);
+        const double across = (a - along * dir).norm();
+        accel_ratio = std::max(std::sqrt(std::abs(along) / limits.max_acceleration_mps2),
+                               std::sqrt(across / limits.max_lateral_acceleration_mps2));
+      } else {
+        accel_ratio = std::sqrt(a.norm() / a_any);
+      }
+      const double ratio = std::max(speed_ratio, accel_ratio);
+      r.limit_ratio = std::max(r.limit_ratio, ratio);
+      if (ratio > 1.0) r.over_limits.push_back({t, speed_ratio, accel_ratio});
     }
-    r.limit_ratio = std::max(r.limit_ratio, ratio);
     if (!map.IsValid(p, required)) {
       if (r.violation_times.empty()) r.worst = p;
       r.violation_times.push_back(t);
     }
-    candidates.emplace_back(map.ClearanceLowerBound(p), p);
+    r.samples.emplace_back(map.ClearanceLowerBound(p), p);
     if (last) break;
     // Spatial steps below check_step: over 10 ms the speed changes by < 0.5 m/s.
     t += std::min(0.01, check_step / (speed + 0.5));
@@ -334,56 +416,55 @@ CheckResult CheckTrajectory(const ClearanceMap& map, const PolynomialTrajectory&
       last = true;
     }
   }
-  // The exact minimum over the samples: by increasing lower bound, until the bound passes the
-  // best exact value found.
-  std::sort(candidates.begin(), candidates.end(),
-            [](const auto& x, const auto& y) { return x.first < y.first; });
-  for (const auto& [bound, p] : candidates) {
-    if (bound >= r.min_clearance) break;
-    r.min_clearance = std::min(r.min_clearance, map.ClearanceUpTo(p, r.min_clearance));
-  }
   return r;
 }
 
-// Whether every point of the arc keeps `clearance` (samples every 2 cm).
-bool ArcValid(const ClearanceMap& map, const Corner& k, double clearance) {
-  const int samples = std::max(2, static_cast<int>(std::ceil(k.radius * k.angle / 0.02)));
-  for (int q = 0; q <= samples; ++q) {
-    if (!map.IsValid(ArcPoint(k.centre, k.e1, k.u1, k.radius, k.angle * q / samples), clearance)) {
-      return false;
-    }
+// The exact minimum clearance over the check's samples: by increasing lower bound, until the
+// bound passes the best exact value found.
+double MinClearance(const ClearanceMap& map, CheckResult* check) {
+  auto& samples = check->samples;
+  std::sort(samples.begin(), samples.end(),
+            [](const auto& x, const auto& y) { return x.first < y.first; });
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& [bound, p] : samples) {
+    if (bound >= best) break;
+    best = std::min(best, map.ClearanceUpTo(p, best));
+  }
+  return best;
+}
+
+// Whether every sample of the corner's curve (<= 2 cm apart) keeps `clearance`.
+bool CurveValid(const ClearanceMap& map, const Corner& k, double clearance) {
+  for (const Eigen::Vector3d& p : k.curve.points) {
+    if (!map.IsValid(p, clearance)) return false;
   }
   return true;
 }
 
-// The widest arc for the corner b between a and c, radius at most `radius`. A taut path
-// touches the obstacles at its corners, where an arc tangent to both segments would cut inside;
-// so the vertex is first moved outwards along the bisector by the arc's cut
-// e = R (1 / cos(theta / 2) - 1), which puts the arc's middle back on b. Radii shrink by 30 %
-// until the arc and the straight pieces to a and c keep `clearance` (and the tangent points fit
-// on the segments); with no arc at all the corner is a stop (kind kStop). *moved_b is the vertex
-// the arc belongs to.
+// The widest curve for the corner b between a and c, radius at most `radius`, ramps of
+// kRampTimeS at the speed the radius allows (`lateral` m/s^2, at most `v_max`). A taut path
+// touches the obstacles at its corners, where a curve tangent to both segments would cut inside;
+// so the vertex is first moved outwards along the bisector by the curve's cut (the distance
+// from the vertex to the curve's middle), which puts that middle back on b. Radii shrink by
+// 30 % until the curve and the straight pieces to a and c keep `clearance` (and the curve's ends
+// fit in the shares `in_share`, `out_share` of the segments); with no curve at all the corner
+// is a stop (kind kStop). *moved_b is the vertex the curve belongs to.
 Corner FitCorner(const ClearanceMap& map, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                 const Eigen::Vector3d& c, bool a_pinned, bool c_pinned, double radius,
-                 double clearance, Eigen::Vector3d* moved_b) {
+                 const Eigen::Vector3d& c, double in_share, double out_share, double radius,
+                 double lateral, double v_max, double clearance, Eigen::Vector3d* moved_b) {
   const Eigen::Vector3d u1 = (b - a).normalized(), u2 = (c - b).normalized();
-  const double angle = std::acos(std::clamp(u1.dot(u2), -1.0, 1.0));
   const Eigen::Vector3d outward = (u1 - u2).normalized();
   for (int shrink = 0; shrink < 24 && radius > 0.01; ++shrink, radius *= 0.7) {
-    const double cut = std::min(1.0, radius * (1.0 / std::cos(0.5 * angle) - 1.0));
+    const double ramp = std::min(v_max, std::sqrt(lateral * radius)) * kRampTimeS;
+    const Corner plain = MakeCorner(a, b, c, radius, ramp);
+    const double cut = std::min(1.0, (plain.curve.At(0.5 * plain.curve.length) - b).norm());
     for (const double push : {cut, 0.0}) {
       const Eigen::Vector3d v = b + push * outward;
-      const double in = (v - a).norm(), out = (c - v).norm();
-      const double turn =
-          std::acos(std::clamp((v - a).normalized().dot((c - v).normalized()), -1.0, 1.0));
-      const double tangent = radius * std::tan(0.5 * turn);
-      if (tangent > in * (a_pinned ? 0.95 : 0.5) || tangent > out * (c_pinned ? 0.95 : 0.5)) {
-        continue;
-      }
-      const Corner k = MakeCorner(a, v, c, tangent);
-      if (!ArcValid(map, k, clearance)) continue;
-      if (push > 0 && (!map.IsSegmentValid(a, v - tangent * (v - a).normalized(), clearance) ||
-                       !map.IsSegmentValid(v + tangent * (c - v).normalized(), c, clearance))) {
+      Corner k = push > 0 ? MakeCorner(a, v, c, radius, ramp) : plain;
+      if (k.tangent > (v - a).norm() * in_share || k.tangent > (c - v).norm() * out_share) continue;
+      if (!CurveValid(map, k, clearance)) continue;
+      if (push > 0 && (!map.IsSegmentValid(a, k.curve.points.front(), clearance) ||
+                       !map.IsSegmentValid(k.curve.points.back(), c, clearance))) {
         continue;
       }
       *moved_b = v;
@@ -394,40 +475,44 @@ Corner FitCorner(const ClearanceMap& map, const Eigen::Vector3d& a, const Eigen:
   return Corner{};
 }
 
-// Two corners joined by a short segment (the shortening wraps an obstacle's edge with two
-// nearby vertices) leave room only for tiny arcs. Where the outer segments, extended, pass
-// each other beyond both vertices (closer than 2 cm + 15 % of the short segment: in 3-D they are
-// skew), the pair becomes one vertex there, if the two new segments keep `clearance`.
-void MergeCloseCorners(const ClearanceMap& map, double short_m, double clearance,
+// Corners a few metres apart that turn the same way (the shortening wraps an obstacle with
+// several vertices) leave room only for small arcs. Where the segments before the first and after
+// the last of up to four such vertices, extended, pass each other beyond both (closer than 2 cm +
+// 15 % of the run's length: in 3-D they are skew), the run becomes one vertex there, if the two
+// new segments keep `clearance`. Longer runs are tried first.
+void MergeCloseCorners(const ClearanceMap& map, double run_m, double clearance,
                        std::vector<Eigen::Vector3d>* points, std::vector<bool>* pinned) {
+  std::vector<Eigen::Vector3d>& p = *points;
   for (bool merged = true; merged;) {
     merged = false;
-    for (size_t i = 1; i + 2 < points->size(); ++i) {
-      std::vector<Eigen::Vector3d>& p = *points;
-      if ((*pinned)[i] || (*pinned)[i + 1] || (p[i + 1] - p[i]).norm() > short_m) continue;
-      // Closest points of a + s (v1 - a) and c + t (v2 - c).
-      const Eigen::Vector3d d1 = p[i] - p[i - 1], d2 = p[i + 1] - p[i + 2];
-      const Eigen::Vector3d w = p[i - 1] - p[i + 2];
-      const double aa = d1.dot(d1), bb = d1.dot(d2), cc = d2.dot(d2), dd = d1.dot(w),
-                   ee = d2.dot(w);
-      const double den = aa * cc - bb * bb;
-      if (den < 1e-12 * aa * cc) continue;  // parallel
-      const double s = (bb * ee - cc * dd) / den, t = (aa * ee - bb * dd) / den;
-      if (s <= 1 || t <= 1) continue;
-      const Eigen::Vector3d q1 = p[i - 1] + s * d1, q2 = p[i + 2] + t * d2;
-      if ((q1 - q2).norm() > 0.02 + 0.15 * (p[i + 1] - p[i]).norm() ||
-          (q1 - p[i]).norm() > short_m) {
-        continue;
+    for (size_t i = 1; i + 2 < p.size() && !merged; ++i) {
+      for (size_t j = std::min(i + 3, p.size() - 2); j > i && !merged; --j) {
+        bool movable = true;
+        double run = 0;
+        for (size_t k = i; k <= j; ++k) movable = movable && !(*pinned)[k];
+        for (size_t k = i; k < j; ++k) run += (p[k + 1] - p[k]).norm();
+        if (!movable || run > run_m) continue;
+        // Closest points of p[i-1] + s (p[i] - p[i-1]) and p[j+1] + t (p[j] - p[j+1]).
+        const Eigen::Vector3d d1 = p[i] - p[i - 1], d2 = p[j] - p[j + 1];
+        const Eigen::Vector3d w = p[i - 1] - p[j + 1];
+        const double aa = d1.dot(d1), bb = d1.dot(d2), cc = d2.dot(d2), dd = d1.dot(w),
+                     ee = d2.dot(w);
+        const double den = aa * cc - bb * bb;
+        if (den < 1e-12 * aa * cc) continue;  // parallel
+        const double s = (bb * ee - cc * dd) / den, t = (aa * ee - bb * dd) / den;
+        if (s <= 1 || t <= 1) continue;
+        const Eigen::Vector3d q1 = p[i - 1] + s * d1, q2 = p[j + 1] + t * d2;
+        if ((q1 - q2).norm() > 0.02 + 0.15 * run || (q1 - p[i]).norm() > run + 0.5) continue;
+        const Eigen::Vector3d q = 0.5 * (q1 + q2);
+        if (!map.IsSegmentValid(p[i - 1], q, clearance) ||
+            !map.IsSegmentValid(q, p[j + 1], clearance)) {
+          continue;
+        }
+        p[i] = q;
+        p.erase(p.begin() + i + 1, p.begin() + j + 1);
+        pinned->erase(pinned->begin() + i + 1, pinned->begin() + j + 1);
+        merged = true;
       }
-      const Eigen::Vector3d q = 0.5 * (q1 + q2);
-      if (!map.IsSegmentValid(p[i - 1], q, clearance) ||
-          !map.IsSegmentValid(q, p[i + 2], clearance)) {
-        continue;
-      }
-      p[i] = q;
-      p.erase(p.begin() + i + 1);
-      pinned->erase(pinned->begin() + i + 1);
-      merged = true;
     }
   }
 }
@@ -629,7 +714,7 @@ Result<TrajectoryResult> PlanTrajectory(const ClearanceMap& map,
     points = std::move(kept_points);
     pinned = std::move(kept_pinned);
   }
-  MergeCloseCorners(map, 2.5, corner_clearance, &points, &pinned);
+  MergeCloseCorners(map, 6.0, corner_clearance, &points, &pinned);
   const SpeedLimits& limits = options.limits;
   const double radius_cap =
       limits.max_speed_mps * limits.max_speed_mps / limits.max_lateral_acceleration_mps2;
@@ -640,8 +725,25 @@ Result<TrajectoryResult> PlanTrajectory(const ClearanceMap& map,
   for (int attempt = 0;; ++attempt) {
     MAV_RETURN_IF_ERROR(stop.Check("trajectory"));
     int64_t t0 = MonotonicNowNs();
-    // 1. Corners, each from the previous (possibly moved) vertex to the next original one.
+    // 1. Corners, each from the previous (possibly moved) vertex to the next original one. A
+    // segment between two corners is shared in proportion to the tangent lengths their widest
+    // arcs would want (a gentle bend next to a sharp one leaves it most of the segment).
     const size_t n = points.size();
+    std::vector<double> wanted(n, 0.0);
+    for (size_t i = 1; i + 1 < n; ++i) {
+      if (pinned[i]) continue;
+      const double turn = std::acos(std::clamp(
+          (points[i] - points[i - 1]).normalized().dot((points[i + 1] - points[i]).normalized()),
+          -1.0, 1.0));
+      const double radius = radius_cap * corner_scale[i];
+      wanted[i] = radius * std::tan(0.5 * std::min(turn, 3.0)) +
+                  0.5 * std::min(turn * radius, limits.max_speed_mps * kRampTimeS);
+    }
+    const auto share = [&](size_t mine, size_t other) {
+      if (pinned[other]) return 0.95;
+      const double total = wanted[mine] + wanted[other];
+      return total > 0 ? std::min(0.95, wanted[mine] / total) : 0.5;
+    };
     std::vector<Corner> corners(n);
     std::vector<Eigen::Vector3d> moved = points;
     for (size_t i = 1; i + 1 < n; ++i) {
@@ -654,9 +756,14 @@ Result<TrajectoryResult> PlanTrajectory(const ClearanceMap& map,
         continue;
       }
       if (angle > M_PI - 1e-3) continue;  // a reversal: stop there
-      const double radius = radius_cap * corner_scale[i];
-      corners[i] = FitCorner(map, a, b, c, pinned[i - 1], pinned[i + 1], radius, corner_clearance,
-                             &moved[i]);
+      // The previous corner already took its tangent from segment i-1: what is left is ours.
+      const double used = corners[i - 1].kind == Corner::kArc ? corners[i - 1].tangent : 0.0;
+      const double in_length = (b - a).norm();
+      const double in_share =
+          std::min(share(i, i - 1), std::max(0.0, in_length - used) / std::max(in_length, 1e-9));
+      corners[i] = FitCorner(map, a, b, c, in_share, share(i, i + 1), radius_cap * corner_scale[i],
+                             0.92 * limits.max_lateral_acceleration_mps2, limits.max_speed_mps,
+                             corner_clearance, &moved[i]);
     }
     const RoundedPath rounded = BuildRoundedPath(moved, corners);
     const SpeedProfile profile = PlanSpeed(rounded, limits, windows);
@@ -673,46 +780,71 @@ Result<TrajectoryResult> PlanTrajectory(const ClearanceMap& map,
         FitQuinticSpline(knots, knot_points, options.yaw_policy, options.start_yaw_rad));
     result.spline_ms += MsSince(t0);
 
-    // 4. Check.
+    // 4. Check. Limits first repaired where they are exceeded (a local slow-down), the small
+    // rest by a uniform time scale; clearance violations by closer knots, a lower speed and
+    // smaller arcs around them.
     t0 = MonotonicNowNs();
     CheckResult check = CheckTrajectory(map, trajectory, limits, required, options.check_step_m);
+    const bool clear = check.violation_times.empty();
+    const bool last = attempt >= options.max_refits;
     double scale = 1;
-    if (check.limit_ratio > 1.0) {
-      scale = check.limit_ratio * 1.0005;
-      trajectory = TimeScaled(trajectory, scale);
-      check = CheckTrajectory(map, trajectory, limits, required, options.check_step_m);
-    }
-    result.check_ms += MsSince(t0);
-    if (check.violation_times.empty()) {
+    if (clear && (check.limit_ratio <= kUniformScaleRatio || last)) {
+      if (check.limit_ratio > 1.0) {
+        scale = check.limit_ratio * 1.0005;
+        trajectory = TimeScaled(trajectory, scale);
+        check = CheckTrajectory(map, trajectory, limits, required, options.check_step_m);
+      }
+      result.min_clearance_m = MinClearance(map, &check);
+      result.check_ms += MsSince(t0);
       result.trajectory = std::move(trajectory);
       result.duration_s = result.trajectory.duration_s();
       result.length_m = check.length;
       result.max_speed_mps = check.max_speed;
       result.mean_speed_mps = result.duration_s > 0 ? check.length / result.duration_s : 0;
       result.max_acceleration_mps2 = check.max_acceleration;
-      result.min_clearance_m = check.min_clearance;
       result.time_scale = scale;
       result.refits = attempt;
       return result;
     }
-    if (attempt >= options.max_refits) {
+    result.check_ms += MsSince(t0);
+    if (!clear && last) {
       std::ostringstream msg;
       msg << "trajectory: the spline still comes closer than " << required
           << " m to an obstacle near (" << check.worst.transpose() << ") after " << attempt
           << " repairs";
       return Status::FailedPrecondition(msg.str());
     }
-    // Repair: around every violation, closer knots, a lower speed and smaller arcs.
     std::vector<double> where;
     for (double t : check.violation_times) {
-      const double s = profile.SAt(t / scale);
+      const double s = profile.SAt(t);
       if (where.empty() || s > where.back() + 1.0) where.push_back(s);
     }
     for (double s : where) {
-      windows.push_back({s - 2.0, s + 2.0, 0.75, 0.5});
+      Window w{s - 2.0, s + 2.0};
+      w.speed = 0.75;
+      w.knot = 0.5;
+      windows.push_back(w);
       for (const Piece& p : rounded.pieces) {
-        if (p.arc && p.s0 <= s + 2.0 && p.s0 + p.length >= s - 2.0) corner_scale[p.corner] *= 0.5;
+        if (p.curve && p.s0 <= s + 2.0 && p.s0 + p.length >= s - 2.0) corner_scale[p.corner] *= 0.5;
       }
+    }
+    // Over a limit: where the speed is exceeded the speed limit there drops by the ratio; where an
+    // acceleration is (the spline overshoots the speed plan's acceleration steps), the
+    // accelerations there drop by its square.
+    for (size_t k = 0; k < check.over_limits.size();) {
+      const double s0 = profile.SAt(check.over_limits[k].t);
+      double speed = 1, accel = 1;
+      size_t m = k;
+      while (m < check.over_limits.size() && profile.SAt(check.over_limits[m].t) < s0 + 1.5) {
+        speed = std::max(speed, check.over_limits[m].speed);
+        accel = std::max(accel, check.over_limits[m].accel);
+        ++m;
+      }
+      Window w{s0 - 1.5, profile.SAt(check.over_limits[m - 1].t) + 1.5};
+      w.speed = 0.99 / speed;
+      w.accel = 0.98 / (accel * accel);
+      windows.push_back(w);
+      k = m;
     }
   }
 }

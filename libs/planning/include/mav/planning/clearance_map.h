@@ -62,7 +62,8 @@ class ClearanceMap {
   virtual bool HasClearance(const Eigen::Vector3d& p, double required) const {
     return Clearance(p) >= required;
   }
-  // A smooth, fast approximation of Clearance (m) for path costs: within one cell of it.
+  // A fast approximation of Clearance (m) for path costs (PlanningMap: the distance map at the
+  // nearest cell centre, within half a cell diagonal of the exact value).
   virtual double ApproximateClearance(const Eigen::Vector3d& p) const { return Clearance(p); }
 
   // The planning volume: states outside it are invalid.

@@ -78,7 +78,8 @@ struct ShortenOptions {
 //    segment is valid and keeps the total cost within the bound;
 // 2. corner cutting: each corner b between a and c is replaced by the two points
 //    b + t (a - b), b + t (c - b) for the largest t (bisection) whose cut is valid and within the
-//    bound, which pulls the path taut around the obstacles; collinear points are dropped.
+//    bound, which pulls the path taut around the obstacles; passes repeat until one saves less
+//    than 1 cm (at most corner_passes); then nearly collinear vertices are dropped.
 // The result never costs more than (1 + max_cost_increase) * C(raw) and keeps the ends. A path
 // of one segment is returned as is. Stops early (returning the best so far) when `stop` fires.
 std::vector<Eigen::Vector3d> ShortenPath(const ClearanceMap& map, const CostWeights& weights,

@@ -53,8 +53,8 @@ enum class DistanceMethod {
 
 struct MapOptions {
   // Radius of a sphere containing the vehicle, m: states closer than this to an obstacle are
-  // invalid. 0.5 m: the AscTec Firefly's 0.215 m arms plus its 0.127 m rotors (~0.34 m) plus a
-  // 0.16 m margin for tracking errors. Validated (0, 10].
+  // invalid. 0.5 m: the AscTec Firefly's 0.215 m arms plus its ~0.1 m propellers (~0.32 m) plus
+  // ~0.18 m for tracking errors. Validated (0, 10].
   double robot_radius_m = 0.5;
   UnknownSpace unknown_space = UnknownSpace::kObstacle;
   // Saturation of the distance map and of Clearance(), m: beyond it the exact value does not

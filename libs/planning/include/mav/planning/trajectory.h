@@ -5,25 +5,31 @@
 // Bry, Roy, "Polynomial trajectory planning for aggressive quadrotor flight in dense indoor
 // environments" (ISRR 2013): a geometric path first, then a smooth time-parameterised fit.
 //
-// 1. Corners: nearly collinear vertices are dropped (simplify_tolerance_m), then every corner of
-// the polyline (except the ends and the stops) is rounded by the
-//    largest circular arc tangent to both segments (tangent points at most half a segment from
-//    the corner, radius at most v_max^2 / a_lat) whose points all keep corner_clearance_m; where
-//    no arc fits, the corner becomes a stop.
+// 1. Corners: nearly collinear vertices are dropped (simplify_tolerance_m); runs of up to four
+//    corners within 6 m turning the same way become one where the outer segments meet (when the
+//    new segments are valid); every other corner (except the ends and the stops) gets the widest
+//    curve tangent to both segments whose curvature ramps linearly from 0 to 1/R over 0.5 s at
+//    the corner's speed (an Euler spiral), stays 1/R and ramps back, R <= v_max^2 / a_lat. The
+//    vertex is first moved outwards by the curve's cut, so the curve's middle stays on the taut
+//    path; a segment between two corners is shared in proportion to what their curves want;
+//    curves keep corner_clearance_m. Where no curve fits, the corner becomes a stop.
 // 2. Speed plan on the rounded path, sampled every 5 cm of arc length: v <= v_max on lines,
-//    v <= sqrt(a_lat * R) on an arc of radius R, v = 0 at the ends and stops, and forward and
+//    v <= sqrt(a_lat / kappa) on the curves, v = 0 at the ends and stops, and forward and
 //    backward passes v_{k+1}^2 <= v_k^2 + 2 a_t ds with the tangential acceleration left by the
-//    lateral one, a_t = a_long * sqrt(1 - (v^2 / (R a_lat))^2) (a friction ellipse, so the total
-//    acceleration never exceeds max(a_long, a_lat)), ramped up near the stops (max_jerk_mps3).
+//    lateral one, a_t = a_long * sqrt(1 - (v^2 kappa / a_lat)^2) (a friction ellipse, so the
+//    total acceleration never exceeds max(a_long, a_lat)), ramped up near the stops
+//    (max_jerk_mps3); planned at 97 % of v_max and 92 % of the accelerations.
 // 3. Spline: knots every knot_interval_s of the timed path (and at every stop), positions at the
 //    knots from the speed plan, and the C4 quintic spline through them with v = a = 0 at both
 //    ends (FitQuinticSpline).
-// 4. Check of the final spline, not only of the polyline: speed and accelerations sampled every
-//    10 ms (if above a limit, the whole trajectory is slowed by the smallest uniform time scale
-//    that fixes it: positions are unchanged, v scales by 1/k, a by 1/k^2); clearance at spatial
-//    steps <= check_step_m (1 cm). Where the spline comes closer than required_clearance_m, the
-//    knots there are doubled, the speed limit there is cut and the arcs near it shrink, and the
-//    fit is redone, up to max_refits times. A trajectory that still violates is never returned.
+// 4. Check of the final spline, not only of the polyline: speed and accelerations every 5 ms,
+//    clearance at spatial steps <= check_step_m (1 cm). Where a limit is exceeded by more than
+//    1 % the speed limit or the accelerations there are cut by the excess and the fit is redone;
+//    a smaller excess is removed by the smallest uniform time scale (positions unchanged, v
+//    scales by 1/k, a by 1/k^2). Where the spline comes closer than required_clearance_m, the
+//    knots there are doubled, the speed limit there is cut and the curves near it shrink, and
+//    the fit is redone; up to max_refits repairs in all. A trajectory that still violates the
+//    clearance is never returned.
 
 #include <cstdint>
 #include <vector>
@@ -65,20 +71,21 @@ struct TrajectoryOptions {
   SpeedLimits limits;
   // Clearance every point of the spline keeps, m; 0 = the map's robot radius.
   double required_clearance_m = 0;
-  // Clearance the rounded corners keep, m; 0 = required_clearance_m + 0.05 (room for the
-  // spline's deviation from the rounded path).
+  // Clearance the corner curves keep, m; 0 = required_clearance_m + 0.05 (room for the spline's
+  // deviation from the rounded path; the planner passes the radius plus half its margin).
   double corner_clearance_m = 0;
   // Vertices of the path closer than this to the chord of their neighbours are dropped first
   // (Douglas-Peucker; a chord must keep corner_clearance_m), m. 0.03 m: less than the room the
   // planners' clearance margin leaves. Validated [0, 1].
   double simplify_tolerance_m = 0.03;
-  // Time between the spline's knots, s. 0.25 s: short enough for the spline to follow arcs of a
-  // metre within millimetres, long enough to keep the jerk of the speed plan's corners low.
+  // Time between the spline's knots, s. 0.25 s: short enough for the spline to follow the corner
+  // curves within millimetres, long enough to keep its jerk low.
   // Validated [0.02, 2].
   double knot_interval_s = 0.25;
   // Spatial step of the clearance check of the spline, m. Validated (0, 0.05].
   double check_step_m = 0.01;
-  // Repairs of clearance violations before giving up. Validated [0, 50].
+  // Repairs (of clearance violations and of limits exceeded by more than 1 %) before giving up
+  // on the clearance (a limit excess left then is removed by the time scale). Validated [0, 50].
   int max_refits = 12;
   geometry::YawPolicy yaw_policy = geometry::YawPolicy::kConstant;
   double start_yaw_rad = 0;

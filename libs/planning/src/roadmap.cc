@@ -180,16 +180,17 @@ std::vector<uint32_t> Roadmap::Nearest(const Eigen::Vector3d& p, size_t k) const
 
 Status Roadmap::CheckBelongsTo(const ClearanceMap& map) const {
   const RoadmapInfo& info = impl_->info;
+  // The radius first: it is part of the fingerprint too, but this message says what differs.
+  if (info.robot_radius_m != map.robot_radius()) {
+    return Status::FailedPrecondition("the roadmap was built for robot radius " +
+                                      std::to_string(info.robot_radius_m) + " m, the map uses " +
+                                      std::to_string(map.robot_radius()) + " m");
+  }
   if (info.map_fingerprint != map.fingerprint()) {
     std::ostringstream msg;
     msg << "the roadmap was built on another map (fingerprint " << std::hex << info.map_fingerprint
         << ", this map " << map.fingerprint() << ")";
     return Status::FailedPrecondition(msg.str());
-  }
-  if (info.robot_radius_m != map.robot_radius()) {
-    return Status::FailedPrecondition("the roadmap was built for robot radius " +
-                                      std::to_string(info.robot_radius_m) + " m, the map uses " +
-                                      std::to_string(map.robot_radius()) + " m");
   }
   return Status::Ok();
 }

@@ -149,7 +149,15 @@ TEST_F(RoadmapTest, ARoadmapOfAnotherMapIsRefused) {
   auto r = Roadmap::Deserialize((*built)->Serialize(), "roadmap.mavprm", *other);
   EXPECT_EQ(r.status().code(), StatusCode::kFailedPrecondition);
   EXPECT_NE(r.status().message().find("roadmap.mavprm"), std::string::npos);
+  EXPECT_NE(r.status().message().find("robot radius"), std::string::npos);
   EXPECT_FALSE((*built)->CheckBelongsTo(*other).ok());
+  MapOptions other_policy;
+  other_policy.unknown_space = UnknownSpace::kFree;
+  const auto open = LoadMap(RoomBytes(), other_policy);
+  ASSERT_NE(open, nullptr);
+  r = Roadmap::Deserialize((*built)->Serialize(), "roadmap.mavprm", *open);
+  EXPECT_EQ(r.status().code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(r.status().message().find("another map"), std::string::npos);
   EXPECT_TRUE((*built)->CheckBelongsTo(map()).ok());
 }
 

@@ -10,5 +10,6 @@ namespace mav::eval_cli {
 int RunLocalization(const std::vector<std::string>& args);
 int RunMapping(const std::vector<std::string>& args);
 int RunControl(const std::vector<std::string>& args);
+int RunPlanning(const std::vector<std::string>& args);
 
 }  // namespace mav::eval_cli

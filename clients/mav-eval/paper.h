@@ -38,7 +38,9 @@ struct PaperMappingRow {
 
 const std::array<PaperMappingRow, 3>& PaperMapping();
 
-// Section 3's control and planning results.
+// Section 3's control and planning results: hover, wind, and "Paths of 35 m are planned in
+// 0.75 s and can be safely executed in 7.55-8.8 s with average speeds of 4.2 m/s and peak speeds
+// of 7.70 m/s".
 struct PaperControlFigures {
   double hover_position_rms_m = 0.055;
   double hover_angular_rate_rms_radps = 0.087;

@@ -16,8 +16,21 @@ struct PlotSeries {
   int b = 0, g = 0, r = 0;                 // colour
 };
 
-// Writes a PNG with equal axis scales, a 1 m grid, a legend and start markers.
+// A map drawn under the series, seen from above: column (i, j) covers
+// [origin + (i, j) * cell, origin + (i + 1, j + 1) * cell) in x-y and holds the height of its
+// highest obstacle (m), NaN where the column is empty. Coloured from blue (z_min) to red (z_max).
+struct TopViewHeightMap {
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+  double cell = 1;
+  int nx = 0, ny = 0;
+  std::vector<float> top_m;  // nx * ny, x fastest
+  double z_min = 0, z_max = 1;
+};
+
+// Writes a PNG with equal axis scales, a 1 m grid, a legend and start markers. Series with an
+// empty label get no legend entry. With `background`, the view spans the map too.
 Status WriteTopViewPlot(const std::string& path, const std::string& title,
-                        const std::vector<PlotSeries>& series);
+                        const std::vector<PlotSeries>& series,
+                        const TopViewHeightMap* background = nullptr);
 
 }  // namespace mav::eval_cli

@@ -39,8 +39,8 @@ Status CheckStereoFrame(const mav_dds_StereoFrame& frame) {
   return Status::Ok();
 }
 
-StereoImages StereoFromDds(const mav_dds_StereoFrame& frame) {
-  StereoImages out;
+dataset::StereoPair StereoFromDds(const mav_dds_StereoFrame& frame) {
+  dataset::StereoPair out;
   out.t_ns = frame.t_ns;
   out.rectified = frame.rectified;
   const int rows = static_cast<int>(frame.height);

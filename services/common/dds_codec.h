@@ -21,7 +21,7 @@ uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right
 Status CheckStereoFrame(const mav_dds_StereoFrame& frame);
 
 // A checked frame's pixels, copied out of the (loaned) sample buffers.
-StereoImages StereoFromDds(const mav_dds_StereoFrame& frame);
+dataset::StereoPair StereoFromDds(const mav_dds_StereoFrame& frame);
 
 // Copies a NUL-terminated id into an IDL string<32> field, truncating if needed.
 void CopyId(const char* id, char (&out)[33]);

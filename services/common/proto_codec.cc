@@ -6,15 +6,12 @@
 #include <tuple>
 
 namespace mav::service_common {
-namespace {
 
 std::string Number(double v) {
   std::ostringstream out;
   out << v;
   return out.str();
 }
-
-}  // namespace
 
 void ToProto(const RuntimeStats& stats, v1::RuntimeStats* out) {
   out->set_count(stats.count);
@@ -129,8 +126,8 @@ Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
   return out;
 }
 
-Result<StereoImages> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
-  StereoImages out;
+Result<dataset::StereoPair> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
+  dataset::StereoPair out;
   out.t_ns = pair.t_ns();
   out.rectified = pair.rectified();
   for (const auto& [name, image, mat] :

@@ -9,13 +9,9 @@
 
 namespace mav::localization_service {
 
-namespace {
+using service_common::Number;
 
-std::string Number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+namespace {
 
 // An unsigned option: 0 keeps `*target`, otherwise it must lie in [lo, hi].
 Status UintOption(uint32_t value, uint32_t lo, uint32_t hi, const std::string& field, int* target) {
@@ -172,17 +168,6 @@ Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& 
   }
   config.queue_length = request.queue_length() == 0 ? 2 : static_cast<int>(request.queue_length());
   return config;
-}
-
-Result<StereoInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
-  MAV_ASSIGN_OR_RETURN(service_common::StereoImages images,
-                       service_common::StereoFromProto(pair, field));
-  StereoInput out;
-  out.t_ns = images.t_ns;
-  out.rectified = images.rectified;
-  out.left = std::move(images.left);
-  out.right = std::move(images.right);
-  return out;
 }
 
 void ToProto(const RigPose& pose, v1::PoseWithCovariance* out) {

@@ -25,10 +25,7 @@ v1::LocalizationMethod ToProto(Method method);
 // initial_pose, output_frame, queue_length. InvalidArgument naming the field.
 Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& request);
 
-// A StereoPair as a StereoInput (pixels copied). InvalidArgument naming "<field>.left" etc.: empty
-// image, encoding not MONO8, data size != width*height, left/right sizes differ. The size against
-// the calibration and the time order are checked by the Localizer.
-Result<StereoInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
+using service_common::StereoFromProto;  // pixels copied; sizes checked by the Localizer
 
 using service_common::CalibrationFromProto;
 using service_common::PoseFromProto;

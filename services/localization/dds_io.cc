@@ -4,20 +4,11 @@
 
 #include "mav/common/log.h"
 #include "mav/common/time.h"
+#include "services/common/dds_topics.h"
 
 namespace mav::localization_service {
 
 using service_common::CopyId;
-
-StereoInput FromDds(const mav_dds_StereoFrame& frame) {
-  service_common::StereoImages images = service_common::StereoFromDds(frame);
-  StereoInput out;
-  out.t_ns = images.t_ns;
-  out.rectified = images.rectified;
-  out.left = std::move(images.left);
-  out.right = std::move(images.right);
-  return out;
-}
 
 mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const RigPose& pose, OutputFrame frame,
                                  int64_t publish_t_ns) {
@@ -44,13 +35,12 @@ mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const RigPose& pose, OutputF
 Result<std::unique_ptr<DdsIo>> DdsIo::Create(const transport::DdsOptions& options) {
   using transport::Qos;
   MAV_ASSIGN_OR_RETURN(transport::Participant participant, transport::Participant::Create(options));
-  MAV_ASSIGN_OR_RETURN(
-      StereoTopic stereo_topic,
-      StereoTopic::Create(participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
-  MAV_ASSIGN_OR_RETURN(ImuTopic imu_topic, ImuTopic::Create(participant, transport::kImuTopic,
-                                                            &mav_dds_ImuSample_desc));
-  MAV_ASSIGN_OR_RETURN(PoseTopic pose_topic, PoseTopic::Create(participant, transport::kPoseTopic,
-                                                               &mav_dds_PoseWithCovariance_desc));
+  MAV_ASSIGN_OR_RETURN(StereoTopic stereo_topic,
+                       service_common::OpenTopic<mav_dds_StereoFrame>(participant));
+  MAV_ASSIGN_OR_RETURN(ImuTopic imu_topic,
+                       service_common::OpenTopic<mav_dds_ImuSample>(participant));
+  MAV_ASSIGN_OR_RETURN(PoseTopic pose_topic,
+                       service_common::OpenTopic<mav_dds_PoseWithCovariance>(participant));
   MAV_ASSIGN_OR_RETURN(auto pose_writer, transport::Writer<mav_dds_PoseWithCovariance>::Create(
                                              participant, pose_topic, Qos::State()));
   return std::unique_ptr<DdsIo>(new DdsIo(std::move(participant), std::move(stereo_topic),
@@ -130,7 +120,7 @@ void DdsIo::OnFrame(const mav_dds_StereoFrame& frame) {
     localizer_->CountRejected();
     return;
   }
-  const Status queued = localizer_->SubmitLive(FromDds(frame));
+  const Status queued = localizer_->SubmitLive(StereoInput(service_common::StereoFromDds(frame)));
   if (!queued.ok()) {
     MAV_LOG(kDebug) << "live frame not queued: " << queued.message();
   }

@@ -32,9 +32,6 @@ namespace mav::localization_service {
 using service_common::CheckStereoFrame;
 using service_common::StereoCrc32;
 
-// Copies a checked frame's pixels into a StereoInput.
-StereoInput FromDds(const mav_dds_StereoFrame& frame);
-
 // The pose sample for `pose` (frame_id "world", child_frame_id from `frame`).
 mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const RigPose& pose, OutputFrame frame,
                                  int64_t publish_t_ns);

@@ -140,13 +140,14 @@ grpc::Status LocalizationService::ProcessStereoPair(grpc::ServerContext* context
   if (!request->has_stereo()) {
     return ToGrpcStatus(Status::InvalidArgument("stereo: not set"));
   }
-  Result<StereoInput> input = StereoFromProto(request->stereo(), "stereo");
-  if (!input.ok()) return ToGrpcStatus(input.status());
-  input->publish = !request->skip_publish();
+  Result<dataset::StereoPair> pair = StereoFromProto(request->stereo(), "stereo");
+  if (!pair.ok()) return ToGrpcStatus(pair.status());
+  StereoInput input(std::move(*pair));
+  input.publish = !request->skip_publish();
   // The client's deadline, or process_timeout_ms when it set none.
   const Termination deadline = CallTermination(*context).WithDeadlineNs(
       Termination::AfterMs(static_cast<double>(options_.process_timeout_ms)).deadline_ns());
-  Result<RigPose> result = localizer_->Process(std::move(*input), deadline);
+  Result<RigPose> result = localizer_->Process(std::move(input), deadline);
   if (!result.ok()) return ToGrpcStatus(result.status());
   ToProto(*result, response);
   return grpc::Status::OK;

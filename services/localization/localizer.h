@@ -26,6 +26,7 @@
 #include "mav/common/status.h"
 #include "mav/common/termination.h"
 #include "mav/common/work_queue.h"
+#include "mav/dataset/stereo_pair.h"
 #include "mav/geometry/se3.h"
 #include "mav/localization/rig_odometry.h"
 
@@ -45,11 +46,9 @@ struct LocalizerConfig {
 };
 
 // One stereo pair to process. Images CV_8UC1 of the calibration's size.
-struct StereoInput {
-  int64_t t_ns = 0;
-  cv::Mat left;
-  cv::Mat right;
-  bool rectified = false;
+struct StereoInput : dataset::StereoPair {
+  StereoInput() = default;
+  explicit StereoInput(dataset::StereoPair pair) : dataset::StereoPair(std::move(pair)) {}
   // Publish the result through the PoseSink (false: ProcessStereoPair's skip_publish).
   bool publish = true;
 };

@@ -10,13 +10,9 @@
 
 namespace mav::mapping_service {
 
-namespace {
+using service_common::Number;
 
-std::string Number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+namespace {
 
 // A double option: 0 keeps `*target`; otherwise finite and in [lo, hi] (lo exclusive when
 // `lo_open`).
@@ -120,17 +116,6 @@ Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
       k.features_per_keyframe() == 0 ? 100 : static_cast<int>(k.features_per_keyframe());
   MAV_ASSIGN_OR_RETURN(config.pose_source, PoseSourceFromProto(request.pose_source()));
   return config;
-}
-
-Result<FrameInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
-  MAV_ASSIGN_OR_RETURN(service_common::StereoImages images,
-                       service_common::StereoFromProto(pair, field));
-  FrameInput out;
-  out.t_ns = images.t_ns;
-  out.rectified = images.rectified;
-  out.left = std::move(images.left);
-  out.right = std::move(images.right);
-  return out;
 }
 
 Result<Eigen::AlignedBox3d> BoxFromProto(const v1::Box& box, const std::string& field) {

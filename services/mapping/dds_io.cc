@@ -4,6 +4,7 @@
 
 #include "mav/common/log.h"
 #include "services/common/dds_codec.h"
+#include "services/common/dds_topics.h"
 
 namespace mav::mapping_service {
 
@@ -12,16 +13,6 @@ namespace {
 constexpr int32_t kPoseBatch = 512;
 
 }  // namespace
-
-FrameInput FromDds(const mav_dds_StereoFrame& frame) {
-  service_common::StereoImages images = service_common::StereoFromDds(frame);
-  FrameInput out;
-  out.t_ns = images.t_ns;
-  out.rectified = images.rectified;
-  out.left = std::move(images.left);
-  out.right = std::move(images.right);
-  return out;
-}
 
 geometry::SE3 PoseFromDds(const mav_dds_GroundTruthState& state) {
   const auto& q = state.orientation;
@@ -52,14 +43,12 @@ std::optional<geometry::SE3> BodyPoseFromDds(const mav_dds_PoseWithCovariance& p
 
 Result<std::unique_ptr<DdsIo>> DdsIo::Create(const transport::DdsOptions& options) {
   MAV_ASSIGN_OR_RETURN(transport::Participant participant, transport::Participant::Create(options));
-  MAV_ASSIGN_OR_RETURN(
-      StereoTopic stereo_topic,
-      StereoTopic::Create(participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
+  MAV_ASSIGN_OR_RETURN(StereoTopic stereo_topic,
+                       service_common::OpenTopic<mav_dds_StereoFrame>(participant));
   MAV_ASSIGN_OR_RETURN(GroundTruthTopic ground_truth_topic,
-                       GroundTruthTopic::Create(participant, transport::kGroundTruthTopic,
-                                                &mav_dds_GroundTruthState_desc));
-  MAV_ASSIGN_OR_RETURN(PoseTopic pose_topic, PoseTopic::Create(participant, transport::kPoseTopic,
-                                                               &mav_dds_PoseWithCovariance_desc));
+                       service_common::OpenTopic<mav_dds_GroundTruthState>(participant));
+  MAV_ASSIGN_OR_RETURN(PoseTopic pose_topic,
+                       service_common::OpenTopic<mav_dds_PoseWithCovariance>(participant));
   return std::unique_ptr<DdsIo>(new DdsIo(std::move(participant), std::move(stereo_topic),
                                           std::move(ground_truth_topic), std::move(pose_topic)));
 }
@@ -154,7 +143,7 @@ void DdsIo::OnFrame(const mav_dds_StereoFrame& frame) {
     mapper_->CountRejected();
     return;
   }
-  mapper_->SubmitLiveFrame(FromDds(frame));
+  mapper_->SubmitLiveFrame(service_common::StereoFromDds(frame));
 }
 
 }  // namespace mav::mapping_service

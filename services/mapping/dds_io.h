@@ -29,10 +29,6 @@
 
 namespace mav::mapping_service {
 
-// Copies a frame's pixels (check it first with service_common::CheckStereoFrame,
-// services/common/dds_codec.h).
-FrameInput FromDds(const mav_dds_StereoFrame& frame);
-
 // The pose of the samples (T_world_body; T_world_<child_frame_id> for a localization pose).
 geometry::SE3 PoseFromDds(const mav_dds_GroundTruthState& state);
 geometry::SE3 PoseFromDds(const mav_dds_PoseWithCovariance& pose);

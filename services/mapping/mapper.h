@@ -44,6 +44,7 @@
 #include "mav/common/status.h"
 #include "mav/common/termination.h"
 #include "mav/common/work_queue.h"
+#include "mav/dataset/stereo_pair.h"
 #include "mav/geometry/se3.h"
 #include "mav/mapping/collision_eval.h"
 #include "mav/mapping/keyframes.h"
@@ -77,12 +78,7 @@ struct SessionConfig {
 
 // One stereo pair. Images CV_8UC1 of the calibration's size; `rectified`: already in the
 // rectified geometry (not remapped).
-struct FrameInput {
-  int64_t t_ns = 0;
-  cv::Mat left;
-  cv::Mat right;
-  bool rectified = false;
-};
+using FrameInput = dataset::StereoPair;
 
 struct KeyframeResult {
   bool accepted = false;        // false: skipped by the keyframe rule

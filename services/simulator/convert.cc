@@ -5,15 +5,7 @@
 
 namespace mav::simulator_service {
 
-namespace {
-
-std::string Number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
-
-}  // namespace
+using service_common::Number;
 
 Result<LoadRequest> FromProto(const v1::LoadScenarioRequest& request) {
   LoadRequest out;

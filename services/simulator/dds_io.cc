@@ -4,6 +4,7 @@
 
 #include "mav/common/check.h"
 #include "mav/common/time.h"
+#include "services/common/dds_topics.h"
 
 namespace mav::simulator_service {
 
@@ -95,13 +96,12 @@ dataset::GroundTruthState FromDds(const mav_dds_GroundTruthState& state) {
 Result<std::unique_ptr<DdsStreamSink>> DdsStreamSink::Create(const transport::DdsOptions& options) {
   using transport::Qos;
   MAV_ASSIGN_OR_RETURN(transport::Participant participant, transport::Participant::Create(options));
-  MAV_ASSIGN_OR_RETURN(
-      StereoTopic stereo_topic,
-      StereoTopic::Create(participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
-  MAV_ASSIGN_OR_RETURN(ImuTopic imu_topic, ImuTopic::Create(participant, transport::kImuTopic,
-                                                            &mav_dds_ImuSample_desc));
-  MAV_ASSIGN_OR_RETURN(GtTopic gt_topic, GtTopic::Create(participant, transport::kGroundTruthTopic,
-                                                         &mav_dds_GroundTruthState_desc));
+  MAV_ASSIGN_OR_RETURN(StereoTopic stereo_topic,
+                       service_common::OpenTopic<mav_dds_StereoFrame>(participant));
+  MAV_ASSIGN_OR_RETURN(ImuTopic imu_topic,
+                       service_common::OpenTopic<mav_dds_ImuSample>(participant));
+  MAV_ASSIGN_OR_RETURN(GtTopic gt_topic,
+                       service_common::OpenTopic<mav_dds_GroundTruthState>(participant));
   MAV_ASSIGN_OR_RETURN(auto stereo, transport::Writer<mav_dds_StereoFrame>::Create(
                                         participant, stereo_topic, Qos::SensorStream()));
   MAV_ASSIGN_OR_RETURN(auto imu, transport::Writer<mav_dds_ImuSample>::Create(

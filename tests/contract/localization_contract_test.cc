@@ -870,7 +870,7 @@ TEST(LocalizationDdsTest, StereoFramesAreCheckedBeforeUse) {
   frame.right._length = 12;
   frame.crc32 = StereoCrc32(left.data(), 12, right.data(), 12);
   EXPECT_TRUE(CheckStereoFrame(frame).ok());
-  const StereoInput input = FromDds(frame);
+  const dataset::StereoPair input = service_common::StereoFromDds(frame);
   EXPECT_EQ(input.left.cols, 4);
   EXPECT_EQ(input.right.at<uint8_t>(2, 3), 9);
   frame.crc32 ^= 1;

@@ -876,7 +876,7 @@ TEST(MappingDdsTest, StereoFramesAreCheckedNamingTheField) {
   frame.right._length = 12;
   frame.crc32 = service_common::StereoCrc32(left.data(), 12, right.data(), 12);
   EXPECT_TRUE(service_common::CheckStereoFrame(frame).ok());
-  const FrameInput input = FromDds(frame);
+  const FrameInput input = service_common::StereoFromDds(frame);
   EXPECT_EQ(input.left.cols, 4);
   EXPECT_EQ(input.right.at<uint8_t>(2, 3), 4);
   frame.crc32 ^= 1;

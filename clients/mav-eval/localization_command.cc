@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -133,8 +134,9 @@ int RunLocalization(const std::vector<std::string>& args) {
   flags.AddString("out", &out_dir,
                   "directory for TUM trajectories and the plot (default DIR/eval)");
   flags.AddString("json", &json_path, "write every figure as {method: {metric: value}}");
-  flags.AddInt64("frames", &max_frames, "evaluate only the first N frames (0 = all)");
-  flags.AddInt64("step", &step, "frames between segment starts of the relative error");
+  flags.AddInt64("frames", &max_frames, "evaluate only the first N frames (0 = all)", 0,
+                 std::numeric_limits<int64_t>::max());
+  flags.AddInt64("step", &step, "frames between segment starts of the relative error", 1, 1000000);
   std::vector<std::string> positional;
   bool help = false;
   if (Status s = flags.Parse(args, &positional, &help); !s.ok()) {
@@ -159,15 +161,15 @@ int RunLocalization(const std::vector<std::string>& args) {
               << "' (known: sparse-pixel, sparse-subpixel, dense, all)\n";
     return 2;
   }
-  if (max_frames < 0 || step < 1) {
-    std::cerr << "mav-eval localization: --frames must be >= 0 and --step >= 1\n";
-    return 2;
-  }
   if (out_dir.empty()) out_dir = data + "/eval";
 
   auto reader = dataset::EurocReader::Open(data);
   if (!reader.ok()) {
     std::cerr << "mav-eval localization: " << reader.status().message() << "\n";
+    return 1;
+  }
+  if (Status s = reader->CheckHasFrames(); !s.ok()) {
+    std::cerr << "mav-eval localization: " << s.message() << "\n";
     return 1;
   }
   if (!reader->has_ground_truth()) {

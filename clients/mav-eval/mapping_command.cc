@@ -9,6 +9,7 @@
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <optional>
 #include <string>
 #include <thread>
@@ -336,7 +337,8 @@ int RunMapping(const std::vector<std::string>& args) {
                   "directory for mesh.ply, the occupancy grids (.bt) and mapping.png "
                   "(default DIR/eval)");
   flags.AddString("json", &json_path, "write every figure as {method: {metric: value}}");
-  flags.AddInt64("frames", &max_frames, "use only the first N frames (0 = all)");
+  flags.AddInt64("frames", &max_frames, "use only the first N frames (0 = all)", 0,
+                 std::numeric_limits<int64_t>::max());
   flags.AddDouble("keyframe-translation", &keyframe_translation_m,
                   "camera-centre distance to the last keyframe that makes a keyframe [m]");
   flags.AddDouble("keyframe-rotation-deg", &keyframe_rotation_deg,
@@ -344,20 +346,21 @@ int RunMapping(const std::vector<std::string>& args) {
   flags.AddBool("no-figure", &no_figure, "do not draw mapping.png");
   int64_t points_per_keyframe = options.sparse.target_points_per_keyframe;
   flags.AddInt64("points-per-keyframe", &points_per_keyframe,
-                 "sparse-mesh: stereo points kept per keyframe (the paper: ~100)");
+                 "sparse-mesh: stereo points kept per keyframe (the paper: ~100)", 1, 100000);
   flags.AddDouble("mesh-sigma", &options.meshing.sigma,
                   "sparse-mesh: distance behind a point of its inside (sink) cell [m]");
   flags.AddBool("free-requires-traversal", &options.mesh_to_grid.free_requires_traversal,
                 "sparse-mesh: outside cells are free only where a line of sight crossed them");
   int64_t carve_radius = options.mesh_to_grid.carve_radius_voxels;
   flags.AddInt64("carve-radius", &carve_radius,
-                 "sparse-mesh: radius of the free-space lines of sight [voxels]");
+                 "sparse-mesh: radius of the free-space lines of sight [voxels]", 0, 8);
   flags.AddDouble(
       "carve-thick-stop", &options.mesh_to_grid.thick_stop_m,
       "sparse-mesh: the thick part of a line of sight ends this far before its point [m]");
   int64_t verify_window = options.sparse.verify_window_keyframes;
   flags.AddInt64("verify-window", &verify_window,
-                 "sparse-mesh: keyframes that check a single-view point (0 = no verification)");
+                 "sparse-mesh: keyframes that check a single-view point (0 = no verification)", 0,
+                 16);
   flags.AddBool("keep-unchecked", &options.sparse.keep_unchecked_points,
                 "sparse-mesh: mesh single-view points that no other keyframe could check");
   flags.AddDouble("mesh-lambda", &options.meshing.lambda_quality,
@@ -377,15 +380,8 @@ int RunMapping(const std::vector<std::string>& args) {
     std::cerr << kCommand << ": --data DIR is required\n" << flags.Help();
     return 2;
   }
-  if (points_per_keyframe < 1 || points_per_keyframe > 100000) {
-    return Fail("--points-per-keyframe: must be in [1, 100000]", 2);
-  }
   options.sparse.target_points_per_keyframe = static_cast<int>(points_per_keyframe);
-  if (carve_radius < 0 || carve_radius > 8) return Fail("--carve-radius: must be in [0, 8]", 2);
   options.mesh_to_grid.carve_radius_voxels = static_cast<int>(carve_radius);
-  if (verify_window < 0 || verify_window > 16) {
-    return Fail("--verify-window: must be in [0, 16]", 2);
-  }
   options.sparse.verify_window_keyframes = static_cast<int>(verify_window);
   if (method_name == "sparse-mesh") {
     options.run_octomap = false;
@@ -395,7 +391,6 @@ int RunMapping(const std::vector<std::string>& args) {
     return Fail("--method: unknown method '" + method_name + "' (known: sparse-mesh, octomap, all)",
                 2);
   }
-  if (max_frames < 0) return Fail("--frames: must be >= 0", 2);
   options.keyframes.min_translation_m = keyframe_translation_m;
   options.keyframes.min_rotation_rad = keyframe_rotation_deg * M_PI / 180.0;
   if (std::string why; !options.IsValid(&why)) {
@@ -405,6 +400,7 @@ int RunMapping(const std::vector<std::string>& args) {
 
   auto reader = dataset::EurocReader::Open(data);
   if (!reader.ok()) return Fail(reader.status().message());
+  if (Status s = reader->CheckHasFrames(); !s.ok()) return Fail(s.message());
   if (!reader->has_ground_truth()) {
     return Fail(reader->mav0() +
                 "/state_groundtruth_estimate0/data.csv: no ground-truth poses (mapping uses "

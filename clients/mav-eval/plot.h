@@ -27,8 +27,12 @@ struct TopViewHeightMap {
   double z_min = 0, z_max = 1;
 };
 
-// Writes a PNG with equal axis scales, a 1 m grid, a legend and start markers. Series with an
-// empty label get no legend entry. With `background`, the view spans the map too.
+// Writes a PNG with equal axis scales, a grid (1 m for rooms, 5 m up to a plant, at most 30 lines
+// per axis whatever the span), a legend and start markers. Series with an empty label get no
+// legend entry. With `background`, the view spans the map too. Positions that are not finite or
+// lie beyond 1e15 m are not drawn (the line breaks there) and counted on the plot, so the cost is
+// bounded by the number of points whatever their values. InvalidArgument if no position is
+// drawable, IoError if the PNG cannot be written.
 Status WriteTopViewPlot(const std::string& path, const std::string& title,
                         const std::vector<PlotSeries>& series,
                         const TopViewHeightMap* background = nullptr);

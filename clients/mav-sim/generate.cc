@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <thread>
 #include <vector>
@@ -147,14 +148,15 @@ int RunGenerate(const std::vector<std::string>& args) {
       Join(sim::PresetNames()));
   parser.AddString("preset", &flags.preset, "scenario preset (required)");
   parser.AddString("out", &flags.out, "output directory (required)");
-  parser.AddInt64("frames", &flags.frames, "number of stereo frames; 0 = the preset's full length");
+  parser.AddInt64("frames", &flags.frames, "number of stereo frames; 0 = the preset's full length",
+                  0, std::numeric_limits<int64_t>::max());
   parser.AddUint64("seed", &flags.seed, "random seed (same seed, same data set)");
   parser.AddBool("rectified", &flags.rectified,
                  "ideal rectified pinhole pair instead of EuRoC's raw distorted calibration");
   parser.AddDouble("occupancy-resolution", &flags.occupancy_resolution,
-                   "ground-truth voxel size in metres (large worlds default to 0.2)");
+                   "ground-truth voxel size in metres (large worlds default to 0.2)", 0.005);
   parser.AddInt64("threads", &flags.threads,
-                  "render threads (default here: this machine's hardware concurrency)");
+                  "render threads (default here: this machine's hardware concurrency)", 1, 256);
   parser.AddBool("force", &flags.force, "replace the data set in a non-empty --out directory");
 
   std::vector<std::string> positional;
@@ -170,17 +172,6 @@ int RunGenerate(const std::vector<std::string>& args) {
   }
   if (flags.preset.empty()) return Fail(Status::InvalidArgument("--preset: required"));
   if (flags.out.empty()) return Fail(Status::InvalidArgument("--out: required"));
-  if (flags.frames < 0) {
-    return Fail(
-        Status::InvalidArgument("--frames: must be >= 0, got " + std::to_string(flags.frames)));
-  }
-  if (flags.threads < 1 || flags.threads > 256) {
-    return Fail(Status::InvalidArgument("--threads: must be in [1, 256], got " +
-                                        std::to_string(flags.threads)));
-  }
-  if (!(flags.occupancy_resolution >= 0.005) || !std::isfinite(flags.occupancy_resolution)) {
-    return Fail(Status::InvalidArgument("--occupancy-resolution: must be >= 0.005 m"));
-  }
 
   sim::ScenarioOptions options;
   options.preset = flags.preset;

@@ -58,8 +58,8 @@ int RunInfo(const std::vector<std::string>& args) {
     return kExitFailure;
   }
   const dataset::EurocReader& r = *reader;
-  if (r.num_frames() == 0) {
-    PrintError(kCommand, dir + ": no stereo frames (cam0/cam1 data.csv are empty or disjoint)");
+  if (Status s = r.CheckHasFrames(); !s.ok()) {
+    PrintError(kCommand, s.ToString());
     return kExitFailure;
   }
   // Decoding images catches a corrupt or truncated set early.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -62,7 +63,7 @@ int RunPreview(const std::vector<std::string>& args) {
       "Draws frame K's left and right images side by side above a top view of the ground-truth\n"
       "occupancy (DIR/ground_truth/occupancy.mavocc) sliced at the camera height: occupied dark,\n"
       "free light, unknown grey; the trajectory in blue, the camera in red.");
-  parser.AddInt64("frame", &frame, "frame index");
+  parser.AddInt64("frame", &frame, "frame index", 0, std::numeric_limits<int64_t>::max());
   parser.AddString("out", &out, "output PNG (required)");
   parser.AddDouble("slice-z", &slice_z_flag,
                    "height of the occupancy slice in metres (default: the camera's)");

@@ -9,6 +9,7 @@
 #include "euroc_format.h"
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
+#include "mav/common/text.h"
 #include "mav/dataset/euroc.h"
 #include "mav/dataset/stereo_pair.h"
 #include "text.h"
@@ -16,75 +17,85 @@
 namespace mav::dataset {
 namespace {
 
-struct CameraRows {
-  std::vector<int64_t> times;
-  std::vector<std::string> files;
-};
+// A bad file name in cam*/data.csv: the image would be read from outside cam*/data.
+Status CheckPlainFileName(std::string_view file, const std::string& name, int line,
+                          const std::string& column) {
+  if (file.empty() || file.find('/') != std::string_view::npos || file == "." || file == "..") {
+    return Status::InvalidArgument(internal::Where(name, line, column) + ": " +
+                                   QuoteForError(file) + " is not a plain file name");
+  }
+  return Status::Ok();
+}
 
-Result<CameraRows> ReadCameraCsv(const std::string& path) {
-  CameraRows rows;
-  int64_t previous = 0;
-  bool first = true;
+}  // namespace
+
+Result<CameraCsv> ParseCameraCsv(std::string_view text, const std::string& name) {
+  CameraCsv rows;
+  // Two images with one stamp cannot be told apart: camera rows stay strictly increasing.
+  ReadOptions strict;
+  strict.repeated_stamps = RepeatedStamps::kReject;
+  internal::StampSequence stamps(name, strict);
   const std::vector<std::string>& columns = internal::CameraColumns();
   MAV_RETURN_IF_ERROR(internal::ForEachRow(
-      path, ',', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
+      text, name, ',', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
         MAV_ASSIGN_OR_RETURN(const int64_t t,
-                             internal::ParseColumnInt64(f[0], path, line, columns[0]));
-        MAV_RETURN_IF_ERROR(internal::CheckIncreasing(t, &previous, &first, path, line));
+                             internal::ParseColumnInt64(f[0], name, line, columns[0]));
+        bool keep = true;
+        MAV_RETURN_IF_ERROR(stamps.Next(t, line, &keep));
         const std::string_view file = Trim(f[1]);
-        if (file.empty() || file.find('/') != std::string_view::npos || file == "." ||
-            file == "..") {
-          return Status::InvalidArgument(internal::Where(path, line, columns[1]) + ": '" +
-                                         std::string(file) + "' is not a plain file name");
-        }
-        rows.times.push_back(t);
+        MAV_RETURN_IF_ERROR(CheckPlainFileName(file, name, line, columns[1]));
+        rows.t_ns.push_back(t);
         rows.files.emplace_back(file);
         return Status::Ok();
       }));
   return rows;
 }
 
-Result<std::vector<ImuSample>> ReadImuCsv(const std::string& path) {
+Result<std::vector<ImuSample>> ParseImuCsv(std::string_view text, const std::string& name,
+                                           const ReadOptions& options) {
   std::vector<ImuSample> samples;
-  int64_t previous = 0;
-  bool first = true;
+  internal::StampSequence stamps(name, options);
   const std::vector<std::string>& columns = internal::ImuColumns();
   MAV_RETURN_IF_ERROR(internal::ForEachRow(
-      path, ',', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
+      text, name, ',', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
         ImuSample s;
-        MAV_ASSIGN_OR_RETURN(s.t_ns, internal::ParseColumnInt64(f[0], path, line, columns[0]));
-        MAV_RETURN_IF_ERROR(internal::CheckIncreasing(s.t_ns, &previous, &first, path, line));
+        MAV_ASSIGN_OR_RETURN(s.t_ns, internal::ParseColumnInt64(f[0], name, line, columns[0]));
+        bool keep = true;
+        MAV_RETURN_IF_ERROR(stamps.Next(s.t_ns, line, &keep));
+        // A dropped row is still parsed: a malformed row is an error wherever it is.
         for (int i = 0; i < 3; ++i) {
           MAV_ASSIGN_OR_RETURN(s.gyro[i],
-                               internal::ParseColumnDouble(f[1 + i], path, line, columns[1 + i]));
+                               internal::ParseColumnDouble(f[1 + i], name, line, columns[1 + i]));
           MAV_ASSIGN_OR_RETURN(s.accel[i],
-                               internal::ParseColumnDouble(f[4 + i], path, line, columns[4 + i]));
+                               internal::ParseColumnDouble(f[4 + i], name, line, columns[4 + i]));
         }
-        samples.push_back(s);
+        if (keep) samples.push_back(s);
         return Status::Ok();
       }));
   return samples;
 }
 
-Result<std::vector<GroundTruthState>> ReadGroundTruthCsv(const std::string& path) {
+Result<std::vector<GroundTruthState>> ParseGroundTruthCsv(std::string_view text,
+                                                          const std::string& name,
+                                                          const ReadOptions& options) {
   std::vector<GroundTruthState> states;
-  int64_t previous = 0;
-  bool first = true;
+  internal::StampSequence stamps(name, options);
   const std::vector<std::string>& columns = internal::GroundTruthColumns();
   MAV_RETURN_IF_ERROR(internal::ForEachRow(
-      path, ',', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
+      text, name, ',', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
         GroundTruthState g;
-        MAV_ASSIGN_OR_RETURN(g.t_ns, internal::ParseColumnInt64(f[0], path, line, columns[0]));
-        MAV_RETURN_IF_ERROR(internal::CheckIncreasing(g.t_ns, &previous, &first, path, line));
+        MAV_ASSIGN_OR_RETURN(g.t_ns, internal::ParseColumnInt64(f[0], name, line, columns[0]));
+        bool keep = true;
+        MAV_RETURN_IF_ERROR(stamps.Next(g.t_ns, line, &keep));
         double v[16];
         for (int i = 0; i < 16; ++i) {
           MAV_ASSIGN_OR_RETURN(v[i],
-                               internal::ParseColumnDouble(f[1 + i], path, line, columns[1 + i]));
+                               internal::ParseColumnDouble(f[1 + i], name, line, columns[1 + i]));
         }
         const Eigen::Quaterniond q(v[3], v[4], v[5], v[6]);
         const double norm = q.norm();
         if (!(norm > 0.5 && norm < 1.5)) {
-          return Status::InvalidArgument(internal::Where(path, line, columns[4]) +
+          return Status::InvalidArgument(internal::Where(name, line, columns[4]) +
                                          ": quaternion norm " + internal::FormatDouble(norm) +
                                          " is not close to 1");
         }
@@ -92,11 +103,13 @@ Result<std::vector<GroundTruthState>> ReadGroundTruthCsv(const std::string& path
         g.v_world = Eigen::Vector3d(v[7], v[8], v[9]);
         g.gyro_bias = Eigen::Vector3d(v[10], v[11], v[12]);
         g.accel_bias = Eigen::Vector3d(v[13], v[14], v[15]);
-        states.push_back(g);
+        if (keep) states.push_back(g);
         return Status::Ok();
       }));
   return states;
 }
+
+namespace {
 
 bool IsIdentity(const geometry::SE3& T) {
   return T.Translation() == Eigen::Vector3d::Zero() &&
@@ -133,7 +146,9 @@ Status ReadImage(const std::string& path, const camera::PinholeRadTan& cam, cv::
 
 }  // namespace
 
-Result<EurocReader> EurocReader::Open(const std::string& root) {
+Result<EurocReader> EurocReader::Open(const std::string& root, const ReadOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return Status::InvalidArgument("options: " + why);
   if (!PathExists(root)) return Status::NotFound(root + ": no such directory");
   if (!IsDirectory(root)) return Status::InvalidArgument(root + ": not a directory");
   EurocReader reader;
@@ -163,7 +178,6 @@ Result<EurocReader> EurocReader::Open(const std::string& root) {
     reader.calibration_.T_body_cam0 = T_imu_body * cam0.T_body_cam;
     reader.calibration_.T_body_cam1 = T_imu_body * cam1.T_body_cam;
   }
-  std::string why;
   if (!reader.calibration_.IsValid(&why)) {
     return Status::InvalidArgument(m + "/cam{0,1}/sensor.yaml: stereo calibration: " + why);
   }
@@ -171,18 +185,23 @@ Result<EurocReader> EurocReader::Open(const std::string& root) {
   reader.camera_rate_hz_ = cam0.rate_hz;
   reader.imu_rate_hz_ = imu.rate_hz;
 
-  MAV_ASSIGN_OR_RETURN(const CameraRows left, ReadCameraCsv(m + "/cam0/data.csv"));
-  MAV_ASSIGN_OR_RETURN(const CameraRows right, ReadCameraCsv(m + "/cam1/data.csv"));
+  const std::string left_path = m + "/cam0/data.csv", right_path = m + "/cam1/data.csv";
+  MAV_ASSIGN_OR_RETURN(const std::string left_text, ReadFileToString(left_path));
+  MAV_ASSIGN_OR_RETURN(const CameraCsv left, ParseCameraCsv(left_text, left_path));
+  MAV_ASSIGN_OR_RETURN(const std::string right_text, ReadFileToString(right_path));
+  MAV_ASSIGN_OR_RETURN(const CameraCsv right, ParseCameraCsv(right_text, right_path));
+  reader.cam0_rows_ = static_cast<int64_t>(left.t_ns.size());
+  reader.cam1_rows_ = static_cast<int64_t>(right.t_ns.size());
   // Both lists are strictly increasing: pair them by a merge.
   size_t i = 0, j = 0;
-  while (i < left.times.size() && j < right.times.size()) {
-    if (left.times[i] == right.times[j]) {
-      reader.frame_times_.push_back(left.times[i]);
+  while (i < left.t_ns.size() && j < right.t_ns.size()) {
+    if (left.t_ns[i] == right.t_ns[j]) {
+      reader.frame_times_.push_back(left.t_ns[i]);
       reader.left_files_.push_back(left.files[i]);
       reader.right_files_.push_back(right.files[j]);
       ++i;
       ++j;
-    } else if (left.times[i] < right.times[j]) {
+    } else if (left.t_ns[i] < right.t_ns[j]) {
       ++i;
       ++reader.skipped_frames_;
     } else {
@@ -190,15 +209,33 @@ Result<EurocReader> EurocReader::Open(const std::string& root) {
       ++reader.skipped_frames_;
     }
   }
-  reader.skipped_frames_ +=
-      static_cast<int64_t>((left.times.size() - i) + (right.times.size() - j));
+  reader.skipped_frames_ += static_cast<int64_t>((left.t_ns.size() - i) + (right.t_ns.size() - j));
 
-  MAV_ASSIGN_OR_RETURN(reader.imu_, ReadImuCsv(m + "/imu0/data.csv"));
+  const std::string imu_path = m + "/imu0/data.csv";
+  MAV_ASSIGN_OR_RETURN(const std::string imu_text, ReadFileToString(imu_path));
+  MAV_ASSIGN_OR_RETURN(reader.imu_, ParseImuCsv(imu_text, imu_path, options));
   const std::string gt_path = m + "/" + internal::kGroundTruthFolder + "/data.csv";
   if (PathExists(gt_path)) {
-    MAV_ASSIGN_OR_RETURN(reader.ground_truth_, ReadGroundTruthCsv(gt_path));
+    MAV_ASSIGN_OR_RETURN(const std::string gt_text, ReadFileToString(gt_path));
+    MAV_ASSIGN_OR_RETURN(reader.ground_truth_, ParseGroundTruthCsv(gt_text, gt_path, options));
   }
   return reader;
+}
+
+Status EurocReader::CheckHasFrames() const {
+  if (num_frames() > 0) return Status::Ok();
+  std::string why;
+  if (cam0_rows_ == 0 && cam1_rows_ == 0) {
+    why = "cam0/data.csv and cam1/data.csv have no rows";
+  } else if (cam0_rows_ == 0 || cam1_rows_ == 0) {
+    why = std::string(cam0_rows_ == 0 ? "cam0" : "cam1") + "/data.csv has no rows (" +
+          (cam0_rows_ == 0 ? "cam1" : "cam0") + " has " +
+          std::to_string(std::max(cam0_rows_, cam1_rows_)) + ")";
+  } else {
+    why = "cam0/data.csv (" + std::to_string(cam0_rows_) + " rows) and cam1/data.csv (" +
+          std::to_string(cam1_rows_) + " rows) share no timestamp";
+  }
+  return Status::FailedPrecondition(mav0_ + ": no stereo frames: " + why);
 }
 
 std::string EurocReader::LeftImagePath(int64_t index) const {

@@ -10,6 +10,7 @@
 
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
+#include "mav/common/text.h"
 #include "mav/dataset/euroc.h"
 #include "text.h"
 
@@ -17,10 +18,10 @@ namespace mav::dataset {
 namespace {
 
 // yaml-cpp rejects OpenCV's "%YAML:1.0" directive (no blank after the colon); drop such lines.
-std::string StripYamlDirective(const std::string& text) {
+std::string StripYamlDirective(std::string_view text) {
   std::string out;
   out.reserve(text.size());
-  std::istringstream in(text);
+  std::istringstream in{std::string(text)};
   std::string line;
   bool first = true;
   while (std::getline(in, line)) {
@@ -36,8 +37,7 @@ std::string FieldWhat(const std::string& path, const std::string& field) {
   return path + ": field '" + field + "'";
 }
 
-Result<YAML::Node> LoadYaml(const std::string& path) {
-  MAV_ASSIGN_OR_RETURN(const std::string text, ReadFileToString(path));
+Result<YAML::Node> LoadYaml(std::string_view text, const std::string& path) {
   try {
     YAML::Node root = YAML::Load(StripYamlDirective(text));
     if (!root.IsMap()) return Status::InvalidArgument(path + ": expected a YAML mapping");
@@ -105,8 +105,8 @@ Status CheckSensorType(const YAML::Node& map, const std::string& expected,
                        const std::string& path) {
   MAV_ASSIGN_OR_RETURN(const std::string type, GetScalar(map, "sensor_type", path));
   if (type != expected) {
-    return Status::InvalidArgument(FieldWhat(path, "sensor_type") + ": '" + type + "', expected '" +
-                                   expected + "'");
+    return Status::InvalidArgument(FieldWhat(path, "sensor_type") + ": " + QuoteForError(type) +
+                                   ", expected '" + expected + "'");
   }
   return Status::Ok();
 }
@@ -199,7 +199,17 @@ std::string FormatTransform(const geometry::SE3& T) {
 }  // namespace
 
 Result<CameraSensor> ReadCameraSensorYaml(const std::string& path) {
-  MAV_ASSIGN_OR_RETURN(const YAML::Node root, LoadYaml(path));
+  MAV_ASSIGN_OR_RETURN(const std::string text, ReadFileToString(path));
+  return ParseCameraSensorYaml(text, path);
+}
+
+Result<ImuSensor> ReadImuSensorYaml(const std::string& path) {
+  MAV_ASSIGN_OR_RETURN(const std::string text, ReadFileToString(path));
+  return ParseImuSensorYaml(text, path);
+}
+
+Result<CameraSensor> ParseCameraSensorYaml(std::string_view text, const std::string& path) {
+  MAV_ASSIGN_OR_RETURN(const YAML::Node root, LoadYaml(text, path));
   MAV_RETURN_IF_ERROR(CheckSensorType(root, "camera", path));
   CameraSensor sensor;
   sensor.comment = GetComment(root);
@@ -218,14 +228,15 @@ Result<CameraSensor> ReadCameraSensorYaml(const std::string& path) {
   }
   MAV_ASSIGN_OR_RETURN(const std::string model, GetScalar(root, "camera_model", path));
   if (model != "pinhole") {
-    return Status::InvalidArgument(FieldWhat(path, "camera_model") + ": '" + model +
-                                   "' is not supported (expected 'pinhole')");
+    return Status::InvalidArgument(FieldWhat(path, "camera_model") + ": " + QuoteForError(model) +
+                                   " is not supported (expected 'pinhole')");
   }
   MAV_ASSIGN_OR_RETURN(const std::vector<double> k, GetDoubles(root, "intrinsics", 4, path));
   MAV_ASSIGN_OR_RETURN(const std::string distortion, GetScalar(root, "distortion_model", path));
   if (distortion != "radial-tangential" && distortion != "radtan" && distortion != "plumb_bob") {
-    return Status::InvalidArgument(FieldWhat(path, "distortion_model") + ": '" + distortion +
-                                   "' is not supported (expected 'radial-tangential')");
+    return Status::InvalidArgument(FieldWhat(path, "distortion_model") + ": " +
+                                   QuoteForError(distortion) +
+                                   " is not supported (expected 'radial-tangential')");
   }
   MAV_ASSIGN_OR_RETURN(const std::vector<double> d,
                        GetDoubles(root, "distortion_coefficients", 4, path));
@@ -245,8 +256,8 @@ Result<CameraSensor> ReadCameraSensorYaml(const std::string& path) {
   return sensor;
 }
 
-Result<ImuSensor> ReadImuSensorYaml(const std::string& path) {
-  MAV_ASSIGN_OR_RETURN(const YAML::Node root, LoadYaml(path));
+Result<ImuSensor> ParseImuSensorYaml(std::string_view text, const std::string& path) {
+  MAV_ASSIGN_OR_RETURN(const YAML::Node root, LoadYaml(text, path));
   MAV_RETURN_IF_ERROR(CheckSensorType(root, "imu", path));
   ImuSensor sensor;
   sensor.comment = GetComment(root);

@@ -1,9 +1,11 @@
 #include "text.h"
 
 #include <charconv>
+#include <cmath>
 
-#include "mav/common/file.h"
+#include "mav/common/log.h"
 #include "mav/common/parse.h"
+#include "mav/common/text.h"
 
 namespace mav::dataset::internal {
 
@@ -39,9 +41,9 @@ std::vector<std::string_view> SplitBlanks(std::string_view line) {
 }  // namespace
 
 Status ForEachRow(
-    const std::string& path, char sep, const std::vector<std::string>& columns,
+    std::string_view contents, const std::string& name, char sep,
+    const std::vector<std::string>& columns,
     const std::function<Status(int line, const std::vector<std::string_view>&)>& row) {
-  MAV_ASSIGN_OR_RETURN(const std::string contents, ReadFileToString(path));
   std::string_view rest(contents);
   int line_number = 0;
   while (!rest.empty()) {
@@ -54,7 +56,7 @@ Status ForEachRow(
     std::vector<std::string_view> fields =
         sep == ' ' ? SplitBlanks(trimmed) : SplitFields(trimmed, sep);
     if (fields.size() != columns.size()) {
-      return Status::InvalidArgument(path + ":" + std::to_string(line_number) + ": expected " +
+      return Status::InvalidArgument(name + ":" + std::to_string(line_number) + ": expected " +
                                      std::to_string(columns.size()) + " columns, got " +
                                      std::to_string(fields.size()));
     }
@@ -69,7 +71,12 @@ std::string Where(const std::string& path, int line, const std::string& column) 
 
 Result<double> ParseColumnDouble(std::string_view text, const std::string& path, int line,
                                  const std::string& column) {
-  return ParseDouble(text, Where(path, line, column));
+  MAV_ASSIGN_OR_RETURN(const double value, ParseDouble(text, Where(path, line, column)));
+  if (std::abs(value) > kMaxAbsColumnValue) {
+    return Status::InvalidArgument(Where(path, line, column) + ": " + QuoteForError(Trim(text)) +
+                                   " is beyond +-1e9, larger than any real measurement");
+  }
+  return value;
 }
 
 Result<int64_t> ParseColumnInt64(std::string_view text, const std::string& path, int line,
@@ -77,16 +84,41 @@ Result<int64_t> ParseColumnInt64(std::string_view text, const std::string& path,
   return ParseInt64(text, Where(path, line, column));
 }
 
-Status CheckIncreasing(int64_t t_ns, int64_t* previous, bool* first, const std::string& path,
-                       int line) {
-  if (!*first && t_ns <= *previous) {
-    return Status::InvalidArgument(path + ":" + std::to_string(line) + ": timestamp " +
-                                   std::to_string(t_ns) + " is not after the previous one (" +
-                                   std::to_string(*previous) + ")");
+Status StampSequence::Next(int64_t t_ns, int line, bool* keep) {
+  *keep = true;
+  const auto where = [&] {
+    return path_ + ":" + std::to_string(line) + ": timestamp " + std::to_string(t_ns);
+  };
+  if (first_) {
+    first_ = false;
+    previous_ = t_ns;
+    return Status::Ok();
   }
-  *first = false;
-  *previous = t_ns;
+  if (t_ns < previous_ ||
+      (t_ns == previous_ && options_.repeated_stamps == RepeatedStamps::kReject)) {
+    return Status::InvalidArgument(where() + " is not after the previous one (" +
+                                   std::to_string(previous_) + ")");
+  }
+  if (t_ns == previous_) {
+    *keep = false;
+    const std::string warning = where() + " repeats the previous row's; row dropped (first kept)";
+    ++repeats_;
+    if (options_.warnings != nullptr) {
+      options_.warnings->push_back(warning);
+    } else if (repeats_ <= ReadOptions::kMaxLoggedWarnings) {
+      MAV_LOG(kWarning) << warning;
+    }
+    return Status::Ok();
+  }
+  previous_ = t_ns;
   return Status::Ok();
+}
+
+StampSequence::~StampSequence() {
+  if (options_.warnings == nullptr && repeats_ > ReadOptions::kMaxLoggedWarnings) {
+    MAV_LOG(kWarning) << path_ << ": " << repeats_ - ReadOptions::kMaxLoggedWarnings
+                      << " more repeated timestamps dropped (" << repeats_ << " in all)";
+  }
 }
 
 }  // namespace mav::dataset::internal

@@ -2,11 +2,13 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "text.h"
 
@@ -60,7 +62,13 @@ Result<int64_t> ParseSeconds(std::string_view text, const std::string& what) {
   };
   if (!whole.empty() && whole.size() <= 10 && frac.size() <= 9 && all_digits(whole) &&
       all_digits(frac)) {
-    int64_t ns = std::stoll(std::string(whole)) * kNsPerSecond;
+    const int64_t seconds = std::stoll(std::string(whole));
+    // Ten digits reach 9999999999 s; int64 nanoseconds end at 9223372036.85 s.
+    if (seconds > std::numeric_limits<int64_t>::max() / kNsPerSecond - 1) {
+      return Status::InvalidArgument(what + ": " + QuoteForError(s) +
+                                     " s is out of range (int64 nanoseconds end at 9.2e9 s)");
+    }
+    int64_t ns = seconds * kNsPerSecond;
     if (!frac.empty()) {
       std::string padded(frac);
       padded.append(9 - padded.size(), '0');
@@ -70,7 +78,8 @@ Result<int64_t> ParseSeconds(std::string_view text, const std::string& what) {
   }
   MAV_ASSIGN_OR_RETURN(const double seconds, ParseDouble(s, what));
   if (!(std::abs(seconds) < 9.2e9)) {
-    return Status::InvalidArgument(what + ": " + std::string(s) + " s is out of range");
+    return Status::InvalidArgument(what + ": " + QuoteForError(s) +
+                                   " s is out of range (int64 nanoseconds end at 9.2e9 s)");
   }
   return SecondsToNs(seconds);
 }
@@ -96,29 +105,38 @@ Status WriteTumTrajectory(const std::string& path, const std::vector<StampedPose
   return WriteText(path, out);
 }
 
-Result<std::vector<StampedPose>> ReadTumTrajectory(const std::string& path) {
+Result<std::vector<StampedPose>> ReadTumTrajectory(const std::string& path,
+                                                   const ReadOptions& options) {
+  MAV_ASSIGN_OR_RETURN(const std::string text, ReadFileToString(path));
+  return ParseTumTrajectory(text, path, options);
+}
+
+Result<std::vector<StampedPose>> ParseTumTrajectory(std::string_view text, const std::string& name,
+                                                    const ReadOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return Status::InvalidArgument("options: " + why);
   std::vector<StampedPose> poses;
   const std::vector<std::string>& columns = TumColumns();
-  int64_t previous = 0;
-  bool first = true;
+  internal::StampSequence stamps(name, options);
   MAV_RETURN_IF_ERROR(internal::ForEachRow(
-      path, ' ', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
+      text, name, ' ', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
         StampedPose pose;
         MAV_ASSIGN_OR_RETURN(pose.t_ns,
-                             ParseSeconds(f[0], internal::Where(path, line, columns[0])));
-        MAV_RETURN_IF_ERROR(internal::CheckIncreasing(pose.t_ns, &previous, &first, path, line));
+                             ParseSeconds(f[0], internal::Where(name, line, columns[0])));
+        bool keep = true;
+        MAV_RETURN_IF_ERROR(stamps.Next(pose.t_ns, line, &keep));
         double v[7];
         for (int i = 0; i < 7; ++i) {
           MAV_ASSIGN_OR_RETURN(v[i],
-                               internal::ParseColumnDouble(f[1 + i], path, line, columns[1 + i]));
+                               internal::ParseColumnDouble(f[1 + i], name, line, columns[1 + i]));
         }
         const Eigen::Quaterniond q(v[6], v[3], v[4], v[5]);
         if (!(q.norm() > 1e-6)) {
-          return Status::InvalidArgument(internal::Where(path, line, "qw") +
+          return Status::InvalidArgument(internal::Where(name, line, "qw") +
                                          ": quaternion has zero norm");
         }
         pose.T_world_body = geometry::SE3(q, Eigen::Vector3d(v[0], v[1], v[2]));
-        poses.push_back(pose);
+        if (keep) poses.push_back(pose);
         return Status::Ok();
       }));
   return poses;
@@ -138,19 +156,37 @@ Status WriteKittiMatrices(const std::string& path, const std::vector<KittiMatrix
   return WriteText(path, out);
 }
 
-Result<std::vector<KittiMatrix>> ReadKittiMatrices(const std::string& path) {
-  std::vector<KittiMatrix> matrices;
+namespace {
+
+// The matrices and the line each came from (comments and blank lines are skipped).
+Status ParseKittiRows(std::string_view text, const std::string& name,
+                      std::vector<KittiMatrix>* matrices, std::vector<int>* lines) {
   const std::vector<std::string>& columns = KittiColumns();
-  MAV_RETURN_IF_ERROR(internal::ForEachRow(
-      path, ' ', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
+  return internal::ForEachRow(
+      text, name, ' ', columns, [&](int line, const std::vector<std::string_view>& f) -> Status {
         KittiMatrix m;
         for (int i = 0; i < 12; ++i) {
           MAV_ASSIGN_OR_RETURN(m(i / 4, i % 4),
-                               internal::ParseColumnDouble(f[i], path, line, columns[i]));
+                               internal::ParseColumnDouble(f[i], name, line, columns[i]));
         }
-        matrices.push_back(m);
+        matrices->push_back(m);
+        lines->push_back(line);
         return Status::Ok();
-      }));
+      });
+}
+
+}  // namespace
+
+Result<std::vector<KittiMatrix>> ReadKittiMatrices(const std::string& path) {
+  MAV_ASSIGN_OR_RETURN(const std::string text, ReadFileToString(path));
+  return ParseKittiMatrices(text, path);
+}
+
+Result<std::vector<KittiMatrix>> ParseKittiMatrices(std::string_view text,
+                                                    const std::string& name) {
+  std::vector<KittiMatrix> matrices;
+  std::vector<int> lines;
+  MAV_RETURN_IF_ERROR(ParseKittiRows(text, name, &matrices, &lines));
   return matrices;
 }
 
@@ -162,14 +198,22 @@ Status WriteKittiTrajectory(const std::string& path, const std::vector<geometry:
 }
 
 Result<std::vector<geometry::SE3>> ReadKittiTrajectory(const std::string& path) {
-  MAV_ASSIGN_OR_RETURN(const std::vector<KittiMatrix> matrices, ReadKittiMatrices(path));
+  MAV_ASSIGN_OR_RETURN(const std::string text, ReadFileToString(path));
+  return ParseKittiTrajectory(text, path);
+}
+
+Result<std::vector<geometry::SE3>> ParseKittiTrajectory(std::string_view text,
+                                                        const std::string& name) {
+  std::vector<KittiMatrix> matrices;
+  std::vector<int> lines;
+  MAV_RETURN_IF_ERROR(ParseKittiRows(text, name, &matrices, &lines));
   std::vector<geometry::SE3> poses;
   poses.reserve(matrices.size());
   for (size_t i = 0; i < matrices.size(); ++i) {
     const Eigen::Matrix3d r = matrices[i].leftCols<3>();
     const double orthogonality = (r * r.transpose() - Eigen::Matrix3d::Identity()).norm();
     if (!(orthogonality < 1e-6) || !(r.determinant() > 0)) {
-      return Status::InvalidArgument(path + ":" + std::to_string(i + 1) +
+      return Status::InvalidArgument(name + ":" + std::to_string(lines[i]) +
                                      ": rotation block is not a rotation (|R R^T - I| = " +
                                      internal::FormatDouble(orthogonality) + ")");
     }

@@ -1,8 +1,12 @@
 #pragma once
-// Helpers for the dataset tests: a temporary directory removed at the end of a test.
+// Helpers for the dataset tests (and the other tests that run the built tools): a temporary
+// directory removed at the end of a test, whole-file reads and writes, running a binary.
 
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -40,6 +44,30 @@ inline void WriteFile(const std::string& path, const std::string& contents) {
 inline std::string ReadFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+struct RunResult {
+  int exit_code = -1;  // 124 if `timeout` stopped it
+  std::string output;  // stdout and stderr
+  double seconds = 0;
+};
+
+// Runs build/bin/<binary> <args> under `timeout`, so that a hang fails the test instead of
+// stalling it.
+inline RunResult RunTool(const std::string& binary, const std::string& args, int timeout_s = 120) {
+  const std::string command = "timeout " + std::to_string(timeout_s) + " " +
+                              std::string(MAV_BINARY_DIR) + "/bin/" + binary + " " + args + " 2>&1";
+  RunResult result;
+  const auto start = std::chrono::steady_clock::now();
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buffer[4096];
+  size_t n;
+  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
 }
 
 }  // namespace mav::dataset::testing

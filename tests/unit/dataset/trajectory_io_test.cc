@@ -17,6 +17,13 @@ using testing::ReadFile;
 using testing::TempDir;
 using testing::WriteFile;
 
+// What we wrote ourselves never repeats a stamp: read it back strictly.
+ReadOptions Strict() {
+  ReadOptions options;
+  options.repeated_stamps = RepeatedStamps::kReject;
+  return options;
+}
+
 Eigen::Quaterniond RandomQuaternion(std::mt19937* rng) {
   std::normal_distribution<double> n;
   return Eigen::Quaterniond(n(*rng), n(*rng), n(*rng), n(*rng)).normalized();
@@ -42,7 +49,7 @@ TEST(Tum, RoundTripIsExact) {
   const std::string path = dir.path() + "/traj.txt";
   const std::vector<StampedPose> poses = RandomPoses(500, 1);
   ASSERT_TRUE(WriteTumTrajectory(path, poses).ok());
-  auto read = ReadTumTrajectory(path);
+  auto read = ReadTumTrajectory(path, Strict());
   ASSERT_TRUE(read.ok()) << read.status().ToString();
   ASSERT_EQ(read->size(), poses.size());
   for (size_t i = 0; i < poses.size(); ++i) {
@@ -63,7 +70,7 @@ TEST(Tum, ManyRandomQuaternionsRoundTripBitForBit) {
   const std::string path = dir.path() + "/traj.txt";
   const std::vector<StampedPose> poses = RandomPoses(2000, 2);
   ASSERT_TRUE(WriteTumTrajectory(path, poses).ok());
-  auto read = ReadTumTrajectory(path);
+  auto read = ReadTumTrajectory(path, Strict());
   ASSERT_TRUE(read.ok());
   ASSERT_EQ(read->size(), poses.size());
   for (size_t i = 0; i < poses.size(); ++i) {
@@ -138,6 +145,88 @@ TEST(Tum, BadInputNamesLineAndField) {
   WriteFile(path, "1.0.0 0 0 0 0 0 0 1\n");
   s = ReadTumTrajectory(path).status();
   EXPECT_NE(s.message().find("column 'timestamp'"), std::string::npos) << s.message();
+}
+
+// Defect 16 of issue 8: TUM's own fr2/desk ground truth and ORB-SLAM's TUM output of EuRoC V1_02
+// each repeat one stamp; such files used to be refused ("is not after the previous one").
+TEST(Tum, RepeatedStampFromTheFieldKeepsTheFirstRowWithAWarning) {
+  TempDir dir;
+  const std::string path = dir.path() + "/groundtruth.txt";
+  // The shape of those files (numbers made up): a header, then one stamp twice in a row.
+  WriteFile(path,
+            "# ground truth trajectory\n"
+            "# timestamp tx ty tz qx qy qz qw\n"
+            "1311868164.3631 -0.1 0.2 1.5 0.65 0.62 -0.29 -0.30\n"
+            "1311868164.3731 -0.1 0.2 1.6 0.65 0.62 -0.29 -0.30\n"
+            "1311868164.3731 -0.9 0.9 1.9 0.65 0.62 -0.29 -0.30\n"
+            "1311868164.3831 -0.1 0.2 1.7 0.65 0.62 -0.29 -0.30\n");
+  std::vector<std::string> warnings;
+  ReadOptions options;
+  options.warnings = &warnings;
+  auto read = ReadTumTrajectory(path, options);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  ASSERT_EQ(read->size(), 3u);
+  EXPECT_EQ((*read)[1].t_ns, 1311868164373100000);
+  EXPECT_EQ((*read)[1].T_world_body.Translation().z(), 1.6) << "the first row is kept";
+  EXPECT_EQ((*read)[2].T_world_body.Translation().z(), 1.7);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_EQ(warnings[0], path +
+                             ":5: timestamp 1311868164373100000 repeats the previous row's; "
+                             "row dropped (first kept)");
+  // Default options: accepted too (the warning is logged).
+  EXPECT_TRUE(ReadTumTrajectory(path).ok());
+  // Strict, for our own outputs.
+  ReadOptions strict;
+  strict.repeated_stamps = RepeatedStamps::kReject;
+  EXPECT_NE(ReadTumTrajectory(path, strict).status().message().find(path + ":5: timestamp"),
+            std::string::npos);
+  // Backwards is still an error.
+  WriteFile(path, "2.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n1.5 0 0 0 0 0 0 1\n");
+  EXPECT_NE(ReadTumTrajectory(path).status().message().find(path + ":3: timestamp 1500000000 is "
+                                                                   "not after the previous one"),
+            std::string::npos);
+}
+
+TEST(Tum, NonFiniteHugeAndOutOfRangeValuesAreRefused) {
+  const struct {
+    const char* row;
+    const char* expected;
+  } cases[] = {
+      {"1.0 inf 0 0 0 0 0 1", "mem:1: column 'tx': must be a finite number, got 'inf'"},
+      {"1.0 0 -inf 0 0 0 0 1", "mem:1: column 'ty': must be a finite number"},
+      {"1.0 0 0 1e300 0 0 0 1", "mem:1: column 'tz': '1e300' is beyond +-1e9"},
+      {"1.0 0 0 0 0 0 0 nan", "mem:1: column 'qw': must be a finite number"},
+      // Ten digits of seconds overflowed int64 nanoseconds (undefined behaviour) before.
+      {"9999999999.5 0 0 0 0 0 0 1", "mem:1: column 'timestamp': '9999999999.5' s is out of range"},
+      {"-9999999999 0 0 0 0 0 0 1", "mem:1: column 'timestamp': '-9999999999' s is out of range"},
+      {"1e300 0 0 0 0 0 0 1", "mem:1: column 'timestamp': '1e300' s is out of range"},
+      {"inf 0 0 0 0 0 0 1", "mem:1: column 'timestamp': must be a finite number"},
+  };
+  for (const auto& c : cases) {
+    const Status s = ParseTumTrajectory(c.row, "mem").status();
+    EXPECT_EQ(s.code(), StatusCode::kInvalidArgument) << c.row;
+    EXPECT_NE(s.message().find(c.expected), std::string::npos) << c.row << " -> " << s.message();
+  }
+  auto ok = ParseTumTrajectory("9223372035.999999999 0 0 0 0 0 0 1\n", "mem");
+  ASSERT_TRUE(ok.ok()) << ok.status().ToString();
+  EXPECT_EQ(ok->front().t_ns, 9223372035999999999);
+}
+
+TEST(Kitti, InMemoryAndLineNumbersCountCommentsAndBlanks) {
+  auto poses = ParseKittiTrajectory("1 0 0 5 0 1 0 6 0 0 1 7\n", "upload.txt");
+  ASSERT_TRUE(poses.ok()) << poses.status().ToString();
+  EXPECT_EQ(poses->front().Translation(), Eigen::Vector3d(5, 6, 7));
+  const Status s =
+      ParseKittiTrajectory("# poses\n\n1 0 0 0 0 1 0 0 0 0 1 0\n2 0 0 0 0 1 0 0 0 0 1 0\n",
+                           "upload.txt")
+          .status();
+  EXPECT_NE(s.message().find("upload.txt:4: rotation block is not a rotation"), std::string::npos)
+      << s.message();
+  EXPECT_NE(ParseKittiMatrices("1 0 0 inf 0 1 0 0 0 0 1 0\n", "k")
+                .status()
+                .message()
+                .find("k:1: column 'tx': must be a finite number"),
+            std::string::npos);
 }
 
 TEST(Kitti, MatricesRoundTripExactlyAndRewriteIsByteIdentical) {

@@ -27,11 +27,13 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mav/camera/pinhole.h"
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
+#include "mav/dataset/read_options.h"
 #include "mav/dataset/types.h"
 #include "mav/geometry/se3.h"
 
@@ -63,6 +65,28 @@ struct ImuSensor {
 // rejects) is stripped. Errors: NotFound (file), InvalidArgument "path: field 'intrinsics': ...".
 Result<CameraSensor> ReadCameraSensorYaml(const std::string& path);
 Result<ImuSensor> ReadImuSensorYaml(const std::string& path);
+// The same from text in memory (an upload, a fuzzer); `name` stands for the path in messages.
+Result<CameraSensor> ParseCameraSensorYaml(std::string_view text, const std::string& name);
+Result<ImuSensor> ParseImuSensorYaml(std::string_view text, const std::string& name);
+
+// The rows of a camera's data.csv: stamps strictly increasing (two images with one stamp could not
+// be told apart), file names plain (no '/', not "." or "..").
+struct CameraCsv {
+  std::vector<int64_t> t_ns;
+  std::vector<std::string> files;  // relative to cam*/data
+};
+
+// The CSV readers EurocReader::Open uses, on text in memory; `name` stands for the path in
+// messages ("name:line: column 'p_RS_R_x [m]': ..."). Every number must be finite and within
+// +-1e9 (no measurement is larger; it keeps sums and squares of them finite). Time stamps must not
+// go backwards; a repeated stamp in imu0 or ground truth is handled as `options` says (default:
+// first row kept, later ones dropped with a warning naming name:line; read_options.h).
+Result<CameraCsv> ParseCameraCsv(std::string_view text, const std::string& name);
+Result<std::vector<ImuSample>> ParseImuCsv(std::string_view text, const std::string& name,
+                                           const ReadOptions& options = {});
+Result<std::vector<GroundTruthState>> ParseGroundTruthCsv(std::string_view text,
+                                                          const std::string& name,
+                                                          const ReadOptions& options = {});
 Status WriteCameraSensorYaml(const std::string& path, const CameraSensor& sensor);
 Status WriteImuSensorYaml(const std::string& path, const ImuSensor& sensor);
 
@@ -119,15 +143,24 @@ class EurocReader {
  public:
   // Errors: NotFound naming the missing path; InvalidArgument "path:line: column 'name': ..." for
   // a malformed row, "path:line: expected N columns, got M", "path:line: timestamp ... is not
-  // after ..." for non-monotonic time; InvalidArgument naming the sensor.yaml field.
-  // Ground truth is optional (has_ground_truth()).
-  static Result<EurocReader> Open(const std::string& root);
+  // after ..." for time going backwards; InvalidArgument naming the sensor.yaml field.
+  // A repeated stamp in imu0 or the ground truth: see `options` (default: warn, keep the first;
+  // pass RepeatedStamps::kReject for data we generated ourselves). Ground truth is optional
+  // (has_ground_truth()). A set without stereo frames opens (see CheckHasFrames()).
+  static Result<EurocReader> Open(const std::string& root, const ReadOptions& options = {});
 
   // Stereo frames: timestamps present in both cam0 and cam1 (paired by exact timestamp).
   int64_t num_frames() const { return static_cast<int64_t>(frame_times_.size()); }
   const std::vector<int64_t>& frame_times() const { return frame_times_; }
   // cam0 or cam1 rows without a partner of the same timestamp (skipped, as EuRoC has a few).
   int64_t skipped_frames() const { return skipped_frames_; }
+  // Rows of cam0/data.csv and cam1/data.csv.
+  int64_t cam0_rows() const { return cam0_rows_; }
+  int64_t cam1_rows() const { return cam1_rows_; }
+  // OK if num_frames() > 0, else FailedPrecondition saying why, naming the directory:
+  // "<mav0>: no stereo frames: cam0/data.csv has no rows" or "... cam0/data.csv (5 rows) and
+  // cam1/data.csv (5 rows) share no timestamp".
+  Status CheckHasFrames() const;
 
   // Reads frame `index` (0 <= index < num_frames(), OutOfRange otherwise). NotFound if a PNG is
   // missing, DataLoss if it cannot be decoded, InvalidArgument naming the file and the expected
@@ -160,6 +193,8 @@ class EurocReader {
   std::vector<std::string> left_files_;   // relative to cam0/data
   std::vector<std::string> right_files_;  // relative to cam1/data
   int64_t skipped_frames_ = 0;
+  int64_t cam0_rows_ = 0;
+  int64_t cam1_rows_ = 0;
   std::vector<ImuSample> imu_;
   std::vector<GroundTruthState> ground_truth_;
 };

@@ -19,30 +19,45 @@
 // a few units in the last place per entry. Translations and timestamps are always exact.
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
 
 #include "mav/common/status.h"
+#include "mav/dataset/read_options.h"
 #include "mav/dataset/types.h"
 #include "mav/geometry/se3.h"
 
 namespace mav::dataset {
 
+// The readers also have in-memory forms (Parse*: an upload, a fuzzer) where `name` stands for the
+// path in messages. Every number must be finite and within +-1e9 (see euroc.h).
+
 Status WriteTumTrajectory(const std::string& path, const std::vector<StampedPose>& poses);
-// Errors: NotFound; InvalidArgument "path:line: expected 8 fields, got N" or
-// "path:line: field 'qw': ..." for a malformed row, a zero quaternion, or a timestamp that does
-// not increase.
-Result<std::vector<StampedPose>> ReadTumTrajectory(const std::string& path);
+// Errors: NotFound; InvalidArgument "path:line: expected 8 columns, got N" or
+// "path:line: column 'qw': ..." for a malformed row, a zero quaternion, a time stamp beyond
+// int64 nanoseconds (9.2e9 s) or time going backwards. A repeated time stamp (TUM's own fr2/desk
+// ground truth has one) is handled as `options` says: by default the first row is kept and the
+// others dropped with a warning naming path:line (read_options.h).
+Result<std::vector<StampedPose>> ReadTumTrajectory(const std::string& path,
+                                                   const ReadOptions& options = {});
+Result<std::vector<StampedPose>> ParseTumTrajectory(std::string_view text, const std::string& name,
+                                                    const ReadOptions& options = {});
 
 using KittiMatrix = Eigen::Matrix<double, 3, 4>;
 
 Status WriteKittiTrajectory(const std::string& path, const std::vector<geometry::SE3>& poses);
+// ReadKittiMatrices plus "path:line: rotation block is not a rotation" for a matrix whose left
+// 3x3 block is not a rotation (|R R^T - I| >= 1e-6 or det <= 0).
 Result<std::vector<geometry::SE3>> ReadKittiTrajectory(const std::string& path);
+Result<std::vector<geometry::SE3>> ParseKittiTrajectory(std::string_view text,
+                                                        const std::string& name);
 // The raw matrices, exactly as in the file.
 Status WriteKittiMatrices(const std::string& path, const std::vector<KittiMatrix>& matrices);
 // Errors: NotFound; InvalidArgument "path:line: expected 12 numbers, got N" or
 // "path:line: entry 'r01': ..." for a malformed number.
 Result<std::vector<KittiMatrix>> ReadKittiMatrices(const std::string& path);
+Result<std::vector<KittiMatrix>> ParseKittiMatrices(std::string_view text, const std::string& name);
 
 }  // namespace mav::dataset

@@ -79,6 +79,7 @@ Status ControlCore::Configure(const ControlConfig& config, const Termination& de
   last_command_ = control::RotorVector::Zero(config.autopilot.vehicle.rotor_count);
   last_armed_ = false;
   last_pose_delay_ns_ = 0;
+  pending_pose_t_ns_ = -1;
   imu_rejected_ = imu_repeated_ = poses_rejected_ = commands_ = 0;
   imu_rate_ = RateMeter();
   pose_rate_ = RateMeter();
@@ -131,6 +132,10 @@ void ControlCore::OnImu(const control::ImuMeasurement& imu) {
   }
   last_command_ = autopilot_->FeedImu(imu);
   last_armed_ = autopilot_->armed();
+  if (pending_pose_t_ns_ >= 0) {
+    last_pose_delay_ns_ = imu.t_ns - pending_pose_t_ns_;
+    pending_pose_t_ns_ = -1;
+  }
   have_imu_ = true;
   last_imu_t_ns_ = imu.t_ns;
   last_imu_wall_ns_ = start_ns;
@@ -156,7 +161,7 @@ void ControlCore::OnPose(const std::string& frame_id, int64_t t_ns,
   pose.source = static_cast<int>(it - frames.begin());
   pose.T_world_sensor = T_world_sensor;
   // Refusals (too old, before the first IMU) are counted by the autopilot (poses_dropped).
-  if (autopilot_->FeedPose(pose).ok()) last_pose_delay_ns_ = last_imu_t_ns_ - t_ns;
+  if (autopilot_->FeedPose(pose).ok()) pending_pose_t_ns_ = t_ns;
   pose_rate_.Add(MonotonicNowNs());
 }
 

@@ -95,7 +95,8 @@ struct ControlCoreState {
   bool armed = false;
   control::AutopilotState autopilot;
   int64_t last_pose_t_ns = 0;
-  double last_pose_delay_ms = 0;  // IMU time at its arrival minus its stamp
+  // The IMU time of the first sample after its arrival minus its stamp.
+  double last_pose_delay_ms = 0;
 };
 
 class ControlCore {
@@ -165,6 +166,7 @@ class ControlCore {
   control::RotorVector last_command_;
   bool last_armed_ = false;
   int64_t last_pose_delay_ns_ = 0;
+  int64_t pending_pose_t_ns_ = -1;  // a merged pose whose delay the next IMU sample measures
   uint64_t imu_rejected_ = 0, imu_repeated_ = 0, poses_rejected_ = 0;
   RateMeter imu_rate_, pose_rate_;
   RuntimeWindow loop_ms_{1000};

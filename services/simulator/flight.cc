@@ -342,17 +342,27 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
   };
   if (config.lockstep) {
     const int64_t give_up_ns = MonotonicNowNs() + SecondsToNs(config.lockstep_timeout_s);
+    uint64_t rejected_before = 0;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      rejected_before = commands_rejected_;
+    }
     while (!context.ShouldStop()) {
       const int64_t remaining = give_up_ns - MonotonicNowNs();
       if (remaining <= 0) {
         *timed_out = true;
         std::lock_guard<std::mutex> lock(mutex_);
-        last_error_ = "lock-step: no actuator command for step " + std::to_string(loaded->step) +
-                      " (t_ns " + std::to_string(t_ns) + ") within " +
-                      Number(config.lockstep_timeout_s) + " s (" +
-                      std::to_string(io_->ActuatorWriters()) +
-                      " actuator writers matched): is the controller configured, with DDS "
-                      "input, and answering every IMU sample?";
+        std::string message = "lock-step: no valid actuator command for step " +
+                              std::to_string(loaded->step) + " (t_ns " + std::to_string(t_ns) +
+                              ") within " + Number(config.lockstep_timeout_s) + " s (" +
+                              std::to_string(io_->ActuatorWriters()) + " actuator writers matched)";
+        if (commands_rejected_ > rejected_before) {
+          message += "; the last one was rejected: " + last_error_;  // Checked()'s reason
+        } else {
+          message +=
+              ": is the controller configured, with DDS input, and answering every IMU sample?";
+        }
+        last_error_ = message;
         return std::nullopt;
       }
       std::optional<ActuatorInput> input =

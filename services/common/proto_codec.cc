@@ -6,13 +6,16 @@
 #include <tuple>
 
 namespace mav::service_common {
-namespace {
 
-std::string Number(double v) {
+std::string NumberText(double v) {
   std::ostringstream out;
   out << v;
   return out.str();
 }
+
+namespace {
+
+std::string Number(double v) { return NumberText(v); }
 
 }  // namespace
 

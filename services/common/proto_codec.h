@@ -16,6 +16,10 @@
 
 namespace mav::service_common {
 
+// A number as a message shows it ("0.25", "1e-15", "nan"): the shortest round-trip-ish form of
+// std::ostream.
+std::string NumberText(double v);
+
 void ToProto(const geometry::SE3& pose, v1::Pose* out);
 void ToProto(const RuntimeStats& stats, v1::RuntimeStats* out);
 void ToProto(const camera::PinholeRadTan& camera, v1::CameraIntrinsics* out);

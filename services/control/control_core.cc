@@ -52,7 +52,12 @@ void ControlCore::RateMeter::Add(int64_t now_ns) {
 }
 
 double ControlCore::RateMeter::Rate(int64_t now_ns) const {
-  return last_ns == 0 || now_ns - last_ns > kRateStaleNs ? 0.0 : rate_hz;
+  if (last_ns == 0 || now_ns - last_ns > kRateStaleNs) return 0.0;
+  if (rate_hz > 0) return rate_hz;
+  // No whole window yet (a short lock-stepped flight): the samples so far.
+  return count >= 2 && last_ns > window_start_ns
+             ? static_cast<double>(count - 1) / NsToSeconds(last_ns - window_start_ns)
+             : 0.0;
 }
 
 ControlCore::ControlCore(CommandSink* sink) : sink_(sink) { MAV_CHECK(sink_ != nullptr); }

@@ -1,7 +1,6 @@
 #include "services/control/convert.h"
 
 #include <cmath>
-#include <sstream>
 #include <utility>
 #include <vector>
 
@@ -14,11 +13,8 @@ namespace mav::control_service {
 
 namespace {
 
-std::string Number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+using service_common::NumberText;
+std::string Number(double v) { return NumberText(v); }
 
 Status NotFinite(const std::string& field) {
   return Status::InvalidArgument(field + ": not finite");

@@ -96,16 +96,8 @@ dataset::GroundTruthState FromDds(const mav_dds_GroundTruthState& state) {
 mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const sim::PoseSample& pose,
                                  const std::string& frame_id, double position_sigma_m,
                                  double orientation_sigma_rad, int64_t publish_t_ns) {
-  mav_dds_PoseWithCovariance out{};
-  out.vehicle_id = mav_dds_kDefaultVehicleId;
-  out.sequence_number = sequence;
-  out.t_ns = pose.t_ns;
-  out.publish_t_ns = publish_t_ns;
-  CopyId("world", out.frame_id);
-  CopyId(frame_id.c_str(), out.child_frame_id);
-  out.position = ToDds(pose.T_world_sensor.Translation());
-  const Eigen::Quaterniond& q = pose.T_world_sensor.Rotation();
-  out.orientation = {q.w(), q.x(), q.y(), q.z()};
+  mav_dds_PoseWithCovariance out = service_common::PoseToDds(sequence, pose.t_ns, publish_t_ns,
+                                                             frame_id.c_str(), pose.T_world_sensor);
   for (int i = 0; i < 3; ++i) {
     out.covariance[i * 7] = position_sigma_m * position_sigma_m;
     out.covariance[(i + 3) * 7] = orientation_sigma_rad * orientation_sigma_rad;

@@ -74,6 +74,7 @@ class DdsStreamSink : public StreamSink, public FlightIo {
   std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t timeout_ns,
                                               uint64_t* received) override;
   uint32_t ActuatorWriters() override;
+  uint32_t ImuReaders() override { return ImuSubscribers(); }
 
  private:
   using StereoTopic = transport::Topic<mav_dds_StereoFrame>;

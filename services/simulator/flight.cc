@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 
 #include "mav/common/check.h"
 #include "mav/common/log.h"
 #include "mav/common/time.h"
+#include "services/common/proto_codec.h"
 
 namespace mav::simulator_service {
 
@@ -21,11 +21,8 @@ constexpr int64_t kWaitSliceNs = 20'000'000;
 // than bursting to catch up.
 constexpr int64_t kMaxLatenessNs = 200'000'000;
 
-std::string Number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+using service_common::NumberText;
+std::string Number(double v) { return NumberText(v); }
 
 WorkQueueOptions QueueOptions() {
   WorkQueueOptions o = WorkQueueOptions::Named("simulator flight", 2);
@@ -429,6 +426,13 @@ Status Flight::Run(const TaskContext& context, const FlightRun& run) {
   loaded->anchor_t_ns = loaded->sim.t_ns();
   const int64_t until_ns = run.until_s > 0 ? SecondsToNs(run.until_s) : 0;
   const int rotor_count = loaded->config.simulation.vehicle.rotor_count;
+  if (loaded->config.lockstep && loaded->step == 0 && !loaded->published) {
+    const int64_t give_up_ns = MonotonicNowNs() + SecondsToNs(loaded->config.lockstep_timeout_s);
+    while ((io_->ActuatorWriters() == 0 || io_->ImuReaders() == 0) &&
+           MonotonicNowNs() < give_up_ns) {
+      if (!context.SleepUntil(MonotonicNowNs() + 10'000'000)) return Status::Ok();
+    }
+  }
   while (!context.ShouldStop()) {
     const sim::FlightStep& out = *loaded->out;
     if (!loaded->published) {

@@ -11,6 +11,9 @@
 //            command_stale_s of simulated time: motors off)
 //            FlightSimulation::Step(command) -> step k+1
 //   end:     FINISHED, scored with eval::ScoreFlightTask (the contest's scripts) on the truth.
+// Lock-step waits (at most lockstep_timeout_s) before the very first step until a controller is
+// discovered (an actuator writer and an IMU reader matched): the first samples of a VOLATILE
+// stream would otherwise go to nobody.
 //
 // State machine (simulator.proto): IDLE --Load--> LOADED --Start--> RUNNING --Pause / run_until_s
 // / pause_on_goal / lock-step timeout--> PAUSED --Start--> RUNNING --(duration)--> FINISHED;
@@ -75,6 +78,8 @@ class FlightIo {
   virtual std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t timeout_ns,
                                                       uint64_t* received) = 0;
   virtual uint32_t ActuatorWriters() = 0;
+  // Matched readers of the IMU stream (the controller's).
+  virtual uint32_t ImuReaders() = 0;
   virtual uint32_t domain() const = 0;
 };
 

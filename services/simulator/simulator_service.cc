@@ -45,6 +45,7 @@ class NullFlightIo : public FlightIo {
     return std::nullopt;
   }
   uint32_t ActuatorWriters() override { return 0; }
+  uint32_t ImuReaders() override { return 0; }
   uint32_t domain() const override { return 0; }
 };
 

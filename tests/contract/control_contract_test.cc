@@ -29,15 +29,15 @@
 #include "services/control/control_service.h"
 #include "services/control/convert.h"
 #include "services/control/dds_io.h"
+#include "tests/common/grpc_expect.h"
 
 namespace mav::control_service {
 namespace {
 
 using grpc::StatusCode;
 
-bool StartsWith(const std::string& text, const std::string& prefix) {
-  return text.rfind(prefix, 0) == 0;
-}
+using ::mav::test_support::ExpectInvalidArgument;  // tests/common/grpc_expect.h
+using ::mav::test_support::StartsWith;
 
 std::chrono::system_clock::time_point Deadline(double seconds) {
   return std::chrono::system_clock::now() +
@@ -199,9 +199,7 @@ class ControlContractTest : public ::testing::Test {
     return state;
   }
   void ExpectInvalid(const grpc::Status& status, const std::string& field) {
-    EXPECT_EQ(status.error_code(), StatusCode::INVALID_ARGUMENT) << status.error_message();
-    EXPECT_TRUE(StartsWith(status.error_message(), field))
-        << "'" << status.error_message() << "' should start with '" << field << "'";
+    ExpectInvalidArgument(status, field);
   }
   void ExpectConfigureInvalid(const std::function<void(v1::ControlConfigureRequest*)>& edit,
                               const std::string& field) {

@@ -31,15 +31,15 @@
 #include "mav/v1/simulator.grpc.pb.h"
 #include "services/simulator/dds_io.h"
 #include "services/simulator/simulator_service.h"
+#include "tests/common/grpc_expect.h"
 
 namespace mav::simulator_service {
 namespace {
 
 using grpc::StatusCode;
 
-bool StartsWith(const std::string& text, const std::string& prefix) {
-  return text.rfind(prefix, 0) == 0;
-}
+using ::mav::test_support::ExpectInvalidArgument;  // tests/common/grpc_expect.h
+using ::mav::test_support::StartsWith;
 
 // The replay's sink: nothing to record here.
 class NullStreamSink : public StreamSink {
@@ -176,6 +176,7 @@ class FakeFlightIo : public FlightIo {
     return best;
   }
   uint32_t ActuatorWriters() override { return 1; }
+  uint32_t ImuReaders() override { return 1; }
   uint32_t domain() const override { return 0; }
 
   std::vector<Event> events() {
@@ -270,9 +271,7 @@ class SimulatorFlightContractTest : public ::testing::Test {
     return s;
   }
   void ExpectInvalid(const grpc::Status& status, const std::string& field) {
-    EXPECT_EQ(status.error_code(), StatusCode::INVALID_ARGUMENT) << status.error_message();
-    EXPECT_TRUE(StartsWith(status.error_message(), field))
-        << "'" << status.error_message() << "' should start with '" << field << "'";
+    ExpectInvalidArgument(status, field);
   }
 
   NullStreamSink stream_sink_;

@@ -1,6 +1,6 @@
 # The closed loop in the stack: mav-simulator (flight mode, lock-step) and mav-control as separate
 # processes over loopback DDS + gRPC; t3_1 hovered inside the contest's limits, then a hand-made
-# leg flown without collision.
+# leg flown without collision; in real time, a killed controller's stale commands stop the motors.
 # Included from tests/integration/CMakeLists.txt: include(${CMAKE_CURRENT_LIST_DIR}/control.cmake)
 mav_add_test(control_stack_test
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/control_stack_test.cc

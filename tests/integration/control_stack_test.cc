@@ -13,6 +13,7 @@
 // control service's step and loop times.
 
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -337,6 +338,79 @@ TEST_F(ControlStackTest, HoverInsideTheContestLimitsThenFlyALegWithoutCollision)
   RecordProperty("hover_position_rms_m", std::to_string(score.position_rms_m()));
   RecordProperty("hover_angular_rate_rms_radps", std::to_string(score.angular_rate_rms_radps()));
   RecordProperty("lockstep_speed_factor", std::to_string(s.speed_factor()));
+}
+
+// Real time: the simulator flies the newest command; when mav-control dies, its last command goes
+// stale after 100 ms (simulated) and the motors stop: the vehicle falls (docs/contracts.md).
+TEST_F(ControlStackTest, InRealTimeStaleCommandsStopTheMotors) {
+  {
+    v1::LoadFlightTaskRequest request;
+    request.set_builtin("t3_1");
+    request.set_seed(1001);
+    request.set_real_time_factor(5);
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(10));
+    v1::FlightStatus s;
+    ASSERT_TRUE(sim_->LoadFlightTask(&context, request, &s).ok());
+  }
+  {
+    Result<dataset::FlightTask> task = control_service::FlightTaskFromSpec("t3_1", "");
+    ASSERT_TRUE(task.ok());
+    v1::ControlConfigureRequest request;
+    control_service::ToProto(control_service::ConfigForFlightTask(
+                                 *task, control::ControllerType::kPaper, /*lockstep=*/false),
+                             &request);
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(10));
+    v1::ControlStatus s;
+    ASSERT_TRUE(ctl_->Configure(&context, request, &s).ok());
+  }
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(15);
+  while (FlightStatus().actuator_writers() == 0 && std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the IMU and pose readers
+  {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(5));
+    v1::FlightStatus s;
+    ASSERT_TRUE(sim_->StartFlight(&context, v1::StartFlightRequest(), &s).ok());
+  }
+  // Arm as soon as the estimator has converged, take off, hover.
+  while (!ControlStatus().estimator_converged() && std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(5));
+    v1::ControlStatus armed;
+    const grpc::Status rpc = ctl_->Arm(&context, v1::ArmRequest(), &armed);
+    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
+  }
+  ASSERT_TRUE(Hover(Eigen::Vector3d(0, 0, 1)).ok());
+  auto wait_for_time = [&](double t_s) {
+    v1::FlightStatus s = FlightStatus();
+    while (NsToSeconds(s.t_ns()) < t_s && s.state() == v1::FLIGHT_STATE_RUNNING &&
+           std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      s = FlightStatus();
+    }
+    return s;
+  };
+  v1::FlightStatus s = wait_for_time(8.0);
+  ASSERT_EQ(s.state(), v1::FLIGHT_STATE_RUNNING);
+  ASSERT_TRUE(s.lifted_off());
+  EXPECT_NEAR(s.position().z(), 1.0, 0.15) << "hovering in real time";
+  const uint64_t stale_before = s.stale_steps();
+  control_->Signal(SIGKILL);
+  s = wait_for_time(NsToSeconds(s.t_ns()) + 2.0);
+  EXPECT_GT(s.stale_steps(), stale_before + 150) << "no command: motors off";
+  EXPECT_LT(s.position().z(), 0.1) << "the vehicle fell";
+  ASSERT_GE(s.collisions_size(), 1);
+  EXPECT_NE(s.collisions(0).what().find("ground"), std::string::npos) << s.collisions(0).what();
+  std::cout << "real time x5: " << stale_before << " stale steps before the controller died, "
+            << s.stale_steps() << " after 2 s; fell to z = " << s.position().z() << " m ("
+            << s.collisions(0).what() << ")\n";
 }
 
 }  // namespace

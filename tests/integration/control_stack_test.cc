@@ -149,6 +149,21 @@ class ControlStackTest : public ::testing::Test {
     EXPECT_TRUE(s.last_error().empty()) << s.last_error() << " (see " << sim_log_ << ")";
     return s;
   }
+  // mav-control configured with what the contest told the teams about t3_1.
+  void ConfigureForT3_1(bool lockstep) {
+    Result<dataset::FlightTask> task = control_service::FlightTaskFromSpec("t3_1", "");
+    ASSERT_TRUE(task.ok());
+    v1::ControlConfigureRequest request;
+    control_service::ToProto(
+        control_service::ConfigForFlightTask(*task, control::ControllerType::kPaper, lockstep),
+        &request);
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(10));
+    v1::ControlStatus s;
+    const grpc::Status rpc = ctl_->Configure(&context, request, &s);
+    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
+    ASSERT_TRUE(s.dds_input());
+  }
   grpc::Status Hover(const Eigen::Vector3d& p) {
     v1::HoverRequest request;
     request.mutable_position()->set_x(p.x());
@@ -184,21 +199,7 @@ TEST_F(ControlStackTest, HoverInsideTheContestLimitsThenFlyALegWithoutCollision)
     ASSERT_TRUE(rpc.ok()) << rpc.error_message();
     ASSERT_EQ(s.task().pose_sensors_size(), 1);
   }
-  {
-    // What the contest told the teams about t3_1 (the yaml changes only the duration).
-    Result<dataset::FlightTask> task = control_service::FlightTaskFromSpec("t3_1", "");
-    ASSERT_TRUE(task.ok());
-    v1::ControlConfigureRequest request;
-    control_service::ToProto(control_service::ConfigForFlightTask(
-                                 *task, control::ControllerType::kPaper, /*lockstep=*/true),
-                             &request);
-    grpc::ClientContext context;
-    context.set_deadline(Deadline(10));
-    v1::ControlStatus s;
-    const grpc::Status rpc = ctl_->Configure(&context, request, &s);
-    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
-    ASSERT_TRUE(s.dds_input());
-  }
+  ConfigureForT3_1(/*lockstep=*/true);  // the yaml changes only the duration
 
   // This test's ground-truth subscriber (every sample).
   transport::DdsOptions options;
@@ -353,18 +354,7 @@ TEST_F(ControlStackTest, InRealTimeStaleCommandsStopTheMotors) {
     v1::FlightStatus s;
     ASSERT_TRUE(sim_->LoadFlightTask(&context, request, &s).ok());
   }
-  {
-    Result<dataset::FlightTask> task = control_service::FlightTaskFromSpec("t3_1", "");
-    ASSERT_TRUE(task.ok());
-    v1::ControlConfigureRequest request;
-    control_service::ToProto(control_service::ConfigForFlightTask(
-                                 *task, control::ControllerType::kPaper, /*lockstep=*/false),
-                             &request);
-    grpc::ClientContext context;
-    context.set_deadline(Deadline(10));
-    v1::ControlStatus s;
-    ASSERT_TRUE(ctl_->Configure(&context, request, &s).ok());
-  }
+  ConfigureForT3_1(/*lockstep=*/false);
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(15);
   while (FlightStatus().actuator_writers() == 0 && std::chrono::steady_clock::now() < give_up) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));

@@ -191,8 +191,8 @@ Status DdsStreamSink::PublishFlightGroundTruth(uint64_t sequence,
   return PublishGroundTruth(sequence, state);
 }
 
-void DdsStreamSink::TakeCommands(int64_t min_t_ns, std::optional<ActuatorInput>* best,
-                                 uint64_t* received) {
+void DdsStreamSink::TakeCommands(int64_t min_t_ns, int64_t max_t_ns,
+                                 std::optional<ActuatorInput>* best, uint64_t* received) {
   while (true) {
     Result<transport::LoanedSamples<mav_dds_ActuatorCommand>> samples = actuators_->Take(16);
     if (!samples.ok()) {
@@ -203,7 +203,8 @@ void DdsStreamSink::TakeCommands(int64_t min_t_ns, std::optional<ActuatorInput>*
       if (!samples->valid(i)) continue;
       ++*received;
       const mav_dds_ActuatorCommand& c = (*samples)[i];
-      if (c.t_ns >= min_t_ns && (!best->has_value() || c.t_ns >= (*best)->t_ns)) {
+      if (c.t_ns >= min_t_ns && c.t_ns <= max_t_ns &&
+          (!best->has_value() || c.t_ns >= (*best)->t_ns)) {
         *best = FromDds(c);
       }
     }
@@ -214,13 +215,14 @@ void DdsStreamSink::TakeCommands(int64_t min_t_ns, std::optional<ActuatorInput>*
 void DdsStreamSink::DiscardCommands() {
   std::optional<ActuatorInput> ignored;
   uint64_t received = 0;
-  TakeCommands(std::numeric_limits<int64_t>::min(), &ignored, &received);
+  TakeCommands(std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::max(), &ignored,
+               &received);
 }
 
-std::optional<ActuatorInput> DdsStreamSink::WaitForCommand(int64_t min_t_ns, int64_t timeout_ns,
-                                                           uint64_t* received) {
+std::optional<ActuatorInput> DdsStreamSink::WaitForCommand(int64_t min_t_ns, int64_t max_t_ns,
+                                                           int64_t timeout_ns, uint64_t* received) {
   std::optional<ActuatorInput> best;
-  TakeCommands(min_t_ns, &best, received);
+  TakeCommands(min_t_ns, max_t_ns, &best, received);
   const int64_t until_ns = MonotonicNowNs() + std::max<int64_t>(timeout_ns, 0);
   while (!best.has_value()) {
     const int64_t remaining = until_ns - MonotonicNowNs();
@@ -231,7 +233,7 @@ std::optional<ActuatorInput> DdsStreamSink::WaitForCommand(int64_t min_t_ns, int
       break;
     }
     if (!*ready) break;
-    TakeCommands(min_t_ns, &best, received);
+    TakeCommands(min_t_ns, max_t_ns, &best, received);
   }
   return best;
 }

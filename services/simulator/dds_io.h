@@ -71,8 +71,8 @@ class DdsStreamSink : public StreamSink, public FlightIo {
   Status PublishFlightGroundTruth(uint64_t sequence,
                                   const dataset::GroundTruthState& state) override;
   void DiscardCommands() override;
-  std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t timeout_ns,
-                                              uint64_t* received) override;
+  std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t max_t_ns,
+                                              int64_t timeout_ns, uint64_t* received) override;
   uint32_t ActuatorWriters() override;
   uint32_t ImuReaders() override { return ImuSubscribers(); }
 
@@ -84,8 +84,9 @@ class DdsStreamSink : public StreamSink, public FlightIo {
   using ActuatorTopic = transport::Topic<mav_dds_ActuatorCommand>;
   explicit DdsStreamSink(transport::Participant participant)
       : participant_(std::move(participant)) {}
-  // Takes every waiting command; keeps the newest stamped >= min_t_ns in *best.
-  void TakeCommands(int64_t min_t_ns, std::optional<ActuatorInput>* best, uint64_t* received);
+  // Takes every waiting command; keeps the newest stamped in [min_t_ns, max_t_ns] in *best.
+  void TakeCommands(int64_t min_t_ns, int64_t max_t_ns, std::optional<ActuatorInput>* best,
+                    uint64_t* received);
 
   // Declaration order = reverse destruction order: readers/writers, then topics, then the
   // participant.

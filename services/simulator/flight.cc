@@ -363,7 +363,7 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
         return std::nullopt;
       }
       std::optional<ActuatorInput> input =
-          io_->WaitForCommand(t_ns, std::min(remaining, kWaitSliceNs), &received);
+          io_->WaitForCommand(t_ns, t_ns, std::min(remaining, kWaitSliceNs), &received);
       count_received();
       if (!input) continue;
       std::optional<sim::RotorVector> command = Checked(*input, rotor_count);
@@ -386,8 +386,8 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
     due = now;
   }
   if (!context.SleepUntil(due)) return std::nullopt;
-  std::optional<ActuatorInput> input =
-      io_->WaitForCommand(std::numeric_limits<int64_t>::min(), 0, &received);
+  std::optional<ActuatorInput> input = io_->WaitForCommand(
+      std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::max(), 0, &received);
   count_received();
   if (input) {
     if (std::optional<sim::RotorVector> command = Checked(*input, rotor_count)) {

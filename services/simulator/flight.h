@@ -72,11 +72,12 @@ class FlightIo {
                                           const dataset::GroundTruthState& state) = 0;
   // Forgets commands received so far (a new flight starts clean).
   virtual void DiscardCommands() = 0;
-  // Waits at most timeout_ns for a command stamped >= min_t_ns and returns the newest such one
-  // received (nullopt after the timeout); commands stamped earlier are consumed and dropped.
-  // `*received` counts every sample taken.
-  virtual std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t timeout_ns,
-                                                      uint64_t* received) = 0;
+  // Waits at most timeout_ns for a command stamped in [min_t_ns, max_t_ns] and returns the newest
+  // such one received (nullopt after the timeout); commands stamped outside are consumed and
+  // dropped (lock-step asks for exactly its step's stamp, so a late answer to an earlier flight is
+  // never flown). `*received` counts every sample taken.
+  virtual std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t max_t_ns,
+                                                      int64_t timeout_ns, uint64_t* received) = 0;
   virtual uint32_t ActuatorWriters() = 0;
   // Matched readers of the IMU stream (the controller's).
   virtual uint32_t ImuReaders() = 0;

@@ -39,7 +39,8 @@ class NullFlightIo : public FlightIo {
     return Status::Ok();
   }
   void DiscardCommands() override {}
-  std::optional<ActuatorInput> WaitForCommand(int64_t, int64_t timeout_ns, uint64_t*) override {
+  std::optional<ActuatorInput> WaitForCommand(int64_t, int64_t, int64_t timeout_ns,
+                                              uint64_t*) override {
     // Nothing ever arrives; sleep like a reader would, so a lock-step wait still times out.
     if (timeout_ns > 0) std::this_thread::sleep_for(std::chrono::nanoseconds(timeout_ns));
     return std::nullopt;

@@ -86,7 +86,7 @@ struct Mission {
 // Records what the flight publishes and answers its IMU samples as `mode` says.
 class FakeFlightIo : public FlightIo {
  public:
-  enum class Mode { kSilent, kMotorsOff, kWrongSize, kNotFinite, kStale, kAutopilot };
+  enum class Mode { kSilent, kMotorsOff, kWrongSize, kNotFinite, kStale, kFuture, kAutopilot };
   struct Event {
     char kind;  // 'i' imu, 'p' pose, 'g' ground truth
     int64_t t_ns;
@@ -128,6 +128,9 @@ class FakeFlightIo : public FlightIo {
         c.t_ns -= 200'000'000;
         c.rotor_speeds_radps.assign(6, 800.0);
         break;
+      case Mode::kFuture:  // e.g. a late answer to an earlier flight, 20 s further on
+        c.t_ns += 20'000'000'000;
+        break;
       case Mode::kAutopilot: {
         const control::RotorVector& w = ap_->FeedImu({s.t_ns, s.gyro, s.accel});
         c.armed = ap_->armed();
@@ -158,19 +161,22 @@ class FakeFlightIo : public FlightIo {
     std::lock_guard<std::mutex> lock(mutex_);
     pending_.clear();
   }
-  std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t timeout_ns,
-                                              uint64_t* received) override {
+  std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t max_t_ns,
+                                              int64_t timeout_ns, uint64_t* received) override {
     std::unique_lock<std::mutex> lock(mutex_);
+    auto in_range = [&](const ActuatorInput& c) {
+      return c.t_ns >= min_t_ns && c.t_ns <= max_t_ns;
+    };
     cv_.wait_for(lock, std::chrono::nanoseconds(std::max<int64_t>(timeout_ns, 0)), [&] {
       for (const ActuatorInput& c : pending_) {
-        if (c.t_ns >= min_t_ns) return true;
+        if (in_range(c)) return true;
       }
       return false;
     });
     std::optional<ActuatorInput> best;
     for (const ActuatorInput& c : pending_) {
       ++*received;
-      if (c.t_ns >= min_t_ns && (!best || c.t_ns >= best->t_ns)) best = c;
+      if (in_range(c) && (!best || c.t_ns >= best->t_ns)) best = c;
     }
     pending_.clear();
     return best;
@@ -518,6 +524,12 @@ TEST_F(SimulatorFlightContractTest, MalformedCommandsAreRejectedNamingTheField) 
                                 "rejected: rotor_speeds: 4 values, the vehicle has 6 rotors"),
             std::string::npos)
       << s.last_error();
+  io_.SetMode(FakeFlightIo::Mode::kFuture);
+  ASSERT_TRUE(LoadBuiltin("t3_1", true, 0.1).ok());
+  ASSERT_TRUE(Start(0).ok());
+  s = WaitStopped();
+  EXPECT_EQ(s.steps(), 0u) << "lock-step flies only the command stamped with its step";
+  EXPECT_GE(s.commands_received(), 1u);
   io_.SetMode(FakeFlightIo::Mode::kNotFinite);
   ASSERT_TRUE(LoadBuiltin("t3_1", true, 0.1).ok());
   ASSERT_TRUE(Start(0).ok());

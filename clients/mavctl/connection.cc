@@ -8,6 +8,7 @@
 #include <grpcpp/client_context.h>
 #include <grpcpp/support/status.h>
 
+#include "mav/common/parse.h"
 #include "mav/common/time.h"
 #include "mav/transport/flags.h"
 #include "mav/transport/grpc_server.h"
@@ -52,6 +53,21 @@ std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
     std::exit(2);
   }
   return positional;
+}
+
+Result<std::vector<double>> ParseNumbers(const std::string& text, size_t n,
+                                         const std::string& flag) {
+  std::vector<double> out;
+  for (std::string_view field : SplitFields(text, ',')) {
+    MAV_ASSIGN_OR_RETURN(double v, ParseDouble(Trim(field), flag));
+    if (!std::isfinite(v)) return Status::InvalidArgument(flag + ": not finite");
+    out.push_back(v);
+  }
+  if (out.size() != n) {
+    return Status::InvalidArgument(flag + ": expected " + std::to_string(n) +
+                                   " comma-separated numbers, got " + std::to_string(out.size()));
+  }
+  return out;
 }
 
 void SetDeadline(const Connection& connection, grpc::ClientContext* context) {

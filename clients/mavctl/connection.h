@@ -42,6 +42,10 @@ std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
                                      const std::vector<std::string>& args,
                                      bool allow_positional = false);
 
+// "a,b,c,..." with exactly `n` finite numbers (a flag's value); InvalidArgument naming the flag.
+Result<std::vector<double>> ParseNumbers(const std::string& text, size_t n,
+                                         const std::string& flag);
+
 // Sets the RPC deadline from --timeout.
 void SetDeadline(const Connection& connection, grpc::ClientContext* context);
 

@@ -6,6 +6,8 @@
 //   mavctl sim occupancy --out FILE [--resolution 0.05] [--format bt|mavocc]
 //   mavctl health [--port P] [--service NAME]
 //   mavctl listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]
+//   mavctl sim flight load|run|pause|status   (the simulator's flight mode)
+//   mavctl ctl configure|arm|disarm|hover|trajectory|gains|state|status   (mav-control)
 //
 // Every RPC has a deadline (--timeout, default 10 s). Exit status: 0 success, 1 the call failed
 // (message on stderr names the address and the status), 2 usage error.
@@ -25,6 +27,7 @@
 #include "mav/v1/simulator.grpc.pb.h"
 
 #include "clients/mavctl/connection.h"
+#include "clients/mavctl/control_commands.h"
 #include "clients/mavctl/listen.h"
 #include "clients/mavctl/localization_commands.h"
 #include "clients/mavctl/mapping_commands.h"
@@ -57,6 +60,8 @@ constexpr char kUsage[] =
     "  loc configure --method sparse-pixel|sparse-subpixel|dense [--euroc DIR | --simulator ADDR]\n"
     "  loc reset | loc status | loc trajectory --out FILE.tum   (port 50052)\n"
     "  map start|reset|insert|build|occupancy|query|mesh|status  (mavctl map --help; port 50053)\n"
+    "  sim flight load|run|pause|status  (mavctl sim flight --help; the flight mode)\n"
+    "  ctl configure|arm|disarm|hover|trajectory|gains|state|status  (mavctl ctl --help; 50055)\n"
     "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
     "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
 
@@ -128,11 +133,12 @@ void PrintStatus(const mav::v1::SimulatorStatus& s) {
 int SimCommand(const std::vector<std::string>& args) {
   if (args.empty()) {
     std::cerr << "mavctl: sim needs a subcommand: load|start|pause|step|status|calibration|"
-                 "occupancy\n";
+                 "occupancy|flight\n";
     return 2;
   }
   const std::string sub = args[0];
   const std::vector<std::string> rest(args.begin() + 1, args.end());
+  if (sub == "flight") return mav::mavctl::FlightCommand(rest);
   Connection connection;
   FlagParser flags("mavctl sim " + sub, "");
   AddConnectionFlags(&flags, &connection);
@@ -365,6 +371,7 @@ int main(int argc, char** argv) {
   if (command == "listen") return ListenCommand(args);
   if (command == "loc") return mav::mavctl::LocalizationCommand(args);
   if (command == "map") return mav::mavctl::MappingCommand(args);
+  if (command == "ctl") return mav::mavctl::ControlCommand(args);
   std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }

@@ -64,22 +64,6 @@ std::unique_ptr<v1::Mapping::Stub> Connect(const Connection& connection) {
       grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials()));
 }
 
-// "a,b,c,..." with exactly `n` numbers; InvalidArgument naming the flag.
-Result<std::vector<double>> ParseNumbers(const std::string& text, size_t n,
-                                         const std::string& flag) {
-  std::vector<double> out;
-  for (std::string_view field : SplitFields(text, ',')) {
-    MAV_ASSIGN_OR_RETURN(double v, ParseDouble(Trim(field), flag));
-    if (!std::isfinite(v)) return Status::InvalidArgument(flag + ": not finite");
-    out.push_back(v);
-  }
-  if (out.size() != n) {
-    return Status::InvalidArgument(flag + ": expected " + std::to_string(n) +
-                                   " comma-separated numbers, got " + std::to_string(out.size()));
-  }
-  return out;
-}
-
 // Box from "x0,y0,z0,x1,y1,z1" (the server validates min <= max).
 Result<v1::Box> ParseBox(const std::string& text, const std::string& flag) {
   MAV_ASSIGN_OR_RETURN(std::vector<double> v, ParseNumbers(text, 6, flag));

@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "mav_sensors.h"
+#include "mav_state.h"
 
 #include "mav/common/status.h"
 #include "services/common/proto_codec.h"
@@ -25,5 +26,11 @@ dataset::StereoPair StereoFromDds(const mav_dds_StereoFrame& frame);
 
 // Copies a NUL-terminated id into an IDL string<32> field, truncating if needed.
 void CopyId(const char* id, char (&out)[33]);
+
+// A pose sample T_world_<child_frame_id> at t_ns for the default vehicle (frame_id "world");
+// covariance, tracking state and statistics are left zero for the caller.
+mav_dds_PoseWithCovariance PoseToDds(uint64_t sequence, int64_t t_ns, int64_t publish_t_ns,
+                                     const char* child_frame_id,
+                                     const geometry::SE3& T_world_child);
 
 }  // namespace mav::service_common

@@ -12,17 +12,8 @@ using service_common::CopyId;
 
 mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const RigPose& pose, OutputFrame frame,
                                  int64_t publish_t_ns) {
-  mav_dds_PoseWithCovariance out{};
-  out.vehicle_id = mav_dds_kDefaultVehicleId;
-  out.sequence_number = sequence;
-  out.t_ns = pose.t_ns;
-  out.publish_t_ns = publish_t_ns;
-  CopyId("world", out.frame_id);
-  CopyId(localization::OutputFrameName(frame), out.child_frame_id);
-  const Eigen::Vector3d& t = pose.T_world_out.Translation();
-  out.position = {t.x(), t.y(), t.z()};
-  const Eigen::Quaterniond& q = pose.T_world_out.Rotation();
-  out.orientation = {q.w(), q.x(), q.y(), q.z()};
+  mav_dds_PoseWithCovariance out = service_common::PoseToDds(
+      sequence, pose.t_ns, publish_t_ns, localization::OutputFrameName(frame), pose.T_world_out);
   for (int i = 0; i < 36; ++i) out.covariance[i] = pose.covariance[i];
   out.tracking_state = static_cast<mav_dds_TrackingState>(static_cast<int>(pose.state));
   out.inliers = pose.inliers;

@@ -1,9 +1,13 @@
 #include "services/simulator/simulator_service.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 #include "mav/common/log.h"
+#include "mav/dataset/flight_task_io.h"
+#include "mav/sim/flight_task.h"
 #include "services/common/file_stream.h"
 #include "services/common/grpc_status.h"
 #include "services/simulator/convert.h"
@@ -20,6 +24,31 @@ using service_common::StreamOccupancy;
 using service_common::ToGrpcStatus;
 
 constexpr double kDefaultResolutionM = 0.05;
+// The base of a task file without `base:`.
+constexpr char kDefaultTaskBase[] = "t3_1";
+
+// The flight mode without a data plane: publishes nowhere, receives nothing.
+class NullFlightIo : public FlightIo {
+ public:
+  Status PublishFlightImu(uint64_t, const dataset::ImuSample&) override { return Status::Ok(); }
+  Status PublishFlightPose(uint64_t, const sim::PoseSample&, const std::string&, double,
+                           double) override {
+    return Status::Ok();
+  }
+  Status PublishFlightGroundTruth(uint64_t, const dataset::GroundTruthState&) override {
+    return Status::Ok();
+  }
+  void DiscardCommands() override {}
+  std::optional<ActuatorInput> WaitForCommand(int64_t, int64_t, int64_t timeout_ns,
+                                              uint64_t*) override {
+    // Nothing ever arrives; sleep like a reader would, so a lock-step wait still times out.
+    if (timeout_ns > 0) std::this_thread::sleep_for(std::chrono::nanoseconds(timeout_ns));
+    return std::nullopt;
+  }
+  uint32_t ActuatorWriters() override { return 0; }
+  uint32_t ImuReaders() override { return 0; }
+  uint32_t domain() const override { return 0; }
+};
 
 }  // namespace
 
@@ -31,8 +60,20 @@ bool SimulatorServiceOptions::IsValid(std::string* why) const {
   return true;
 }
 
-SimulatorService::SimulatorService(StreamSink* sink, SimulatorServiceOptions options)
-    : options_(options), player_(sink) {}
+SimulatorService::SimulatorService(StreamSink* sink, SimulatorServiceOptions options,
+                                   FlightIo* flight_io)
+    : options_(std::move(options)), player_(sink) {
+  if (flight_io == nullptr) {
+    null_flight_io_ = std::make_unique<NullFlightIo>();
+    flight_io = null_flight_io_.get();
+  }
+  flight_ = std::make_unique<Flight>(flight_io);
+}
+
+void SimulatorService::Shutdown() {
+  flight_->Shutdown();
+  player_.Shutdown();
+}
 
 grpc::Status SimulatorService::LoadScenario(grpc::ServerContext* context,
                                             const v1::LoadScenarioRequest* request,
@@ -59,6 +100,7 @@ grpc::Status SimulatorService::Start(grpc::ServerContext* context,
   Result<Pacing> pacing = FromProto(*request);
   if (!pacing.ok()) return ToGrpcStatus(pacing.status());
   if (Status s = CheckDeadline(*context, "Start"); !s.ok()) return ToGrpcStatus(s);
+  if (flight_->running()) (void)flight_->Pause("the replay was started (Start)");
   Result<PlayerStatus> status = player_.Start(*pacing);
   if (!status.ok()) return ToGrpcStatus(status.status());
   ToProto(*status, response);
@@ -175,6 +217,106 @@ grpc::Status SimulatorService::GetGroundTruthOccupancy(
     return ToGrpcStatus(s);
   }
   return StreamOccupancy(context, *grid, *format, *chunk_bytes, writer);
+}
+
+// ---- Flight mode ------------------------------------------------------------------------------
+
+Result<dataset::FlightTask> SimulatorService::ResolveFlightTask(
+    const FlightLoadRequest& load) const {
+  const std::string plant_map = options_.plant_map_path;
+  const dataset::FlightTaskResolver resolve = [plant_map](const std::string& name) {
+    return sim::BuiltinFlightTask(name, plant_map);
+  };
+  Result<dataset::FlightTask> task = Status::Internal("unresolved");
+  switch (load.source) {
+    case FlightLoadRequest::Source::kBuiltin:
+      task = resolve(load.value);
+      // An unknown name is a bad request, not a missing resource.
+      if (!task.ok()) return Status::InvalidArgument("builtin: " + task.status().message());
+      break;
+    case FlightLoadRequest::Source::kYaml:
+      task = dataset::ParseFlightTaskYaml(load.value, "yaml", resolve, kDefaultTaskBase);
+      if (!task.ok()) return task.status();  // "yaml: <key>: ..."
+      break;
+    case FlightLoadRequest::Source::kPath:
+      task = dataset::ReadFlightTaskFile(load.value, resolve, kDefaultTaskBase);
+      if (!task.ok()) {
+        if (task.status().code() == StatusCode::kInvalidArgument) {
+          return Status::InvalidArgument("path: " + task.status().message());
+        }
+        return task.status();
+      }
+      break;
+  }
+  if (!load.map_path.empty()) task->map_path = load.map_path;
+  return task;
+}
+
+Result<std::shared_ptr<const sim::CollisionWorld>> SimulatorService::WorldFor(
+    const std::string& map_path) {
+  if (map_path.empty()) return std::shared_ptr<const sim::CollisionWorld>();
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  if (world_ != nullptr && world_path_ == map_path) return world_;
+  Result<std::unique_ptr<sim::CollisionWorld>> loaded = sim::LoadOctomapCollisionWorld(map_path);
+  if (!loaded.ok()) return loaded.status().WithContext("map " + map_path);
+  world_ = std::shared_ptr<const sim::CollisionWorld>(std::move(*loaded));
+  world_path_ = map_path;
+  return world_;
+}
+
+grpc::Status SimulatorService::ApplyLoadFlightTask(const v1::LoadFlightTaskRequest& request,
+                                                   const Termination& deadline,
+                                                   v1::FlightStatus* response) {
+  Result<FlightLoadRequest> load = FromProto(request);
+  if (!load.ok()) return ToGrpcStatus(load.status());
+  Result<dataset::FlightTask> task = ResolveFlightTask(*load);
+  if (!task.ok()) {
+    MAV_LOG(kWarning) << "LoadFlightTask: " << task.status().ToString();
+    return ToGrpcStatus(task.status());
+  }
+  load->config.task = std::move(*task);
+  Result<std::shared_ptr<const sim::CollisionWorld>> world = WorldFor(load->config.task.map_path);
+  if (!world.ok()) return ToGrpcStatus(world.status());
+  if (Status s = flight_->Load(load->config, *world, deadline); !s.ok()) return ToGrpcStatus(s);
+  ToProto(flight_->GetStatus(), response);
+  return grpc::Status::OK;
+}
+
+grpc::Status SimulatorService::LoadFlightTask(grpc::ServerContext* context,
+                                              const v1::LoadFlightTaskRequest* request,
+                                              v1::FlightStatus* response) {
+  if (Status s = CheckDeadline(*context, "LoadFlightTask"); !s.ok()) return ToGrpcStatus(s);
+  return ApplyLoadFlightTask(*request, CallTermination(*context), response);
+}
+
+grpc::Status SimulatorService::StartFlight(grpc::ServerContext* context,
+                                           const v1::StartFlightRequest* request,
+                                           v1::FlightStatus* response) {
+  Result<FlightRun> run = FromProto(*request);
+  if (!run.ok()) return ToGrpcStatus(run.status());
+  if (Status s = CheckDeadline(*context, "StartFlight"); !s.ok()) return ToGrpcStatus(s);
+  if (player_.GetStatus().state == PlayerState::kRunning) (void)player_.Pause();
+  Result<FlightStatus> status = flight_->Start(*run);
+  if (!status.ok()) return ToGrpcStatus(status.status());
+  ToProto(*status, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status SimulatorService::PauseFlight(grpc::ServerContext* context,
+                                           const v1::PauseFlightRequest*,
+                                           v1::FlightStatus* response) {
+  if (Status s = CheckDeadline(*context, "PauseFlight"); !s.ok()) return ToGrpcStatus(s);
+  Result<FlightStatus> status = flight_->Pause();
+  if (!status.ok()) return ToGrpcStatus(status.status());
+  ToProto(*status, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status SimulatorService::GetFlightStatus(grpc::ServerContext*,
+                                               const v1::GetFlightStatusRequest*,
+                                               v1::FlightStatus* response) {
+  ToProto(flight_->GetStatus(), response);
+  return grpc::Status::OK;
 }
 
 }  // namespace mav::simulator_service

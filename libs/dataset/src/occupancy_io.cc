@@ -9,6 +9,7 @@
 
 #include "mav/common/check.h"
 #include "mav/common/file.h"
+#include "mav/common/hash.h"
 
 namespace mav::dataset {
 namespace {
@@ -20,15 +21,6 @@ constexpr char kMagic[8] = {'M', 'A', 'V', 'O', 'C', 'C', '\n', '\x1a'};
 constexpr uint32_t kVersion = 1;
 constexpr size_t kHeaderBytes = 8 + 4 + 4 + 3 * 8 + 8 + 3 * 4 + 4 + 8;  // = 72
 constexpr size_t kRunBytes = 5;
-
-uint64_t Fnv1a64(const char* data, size_t n) {
-  uint64_t h = 0xcbf29ce484222325ULL;
-  for (size_t i = 0; i < n; ++i) {
-    h ^= static_cast<uint8_t>(data[i]);
-    h *= 0x100000001b3ULL;
-  }
-  return h;
-}
 
 template <typename T>
 void Put(std::string* out, T value) {
@@ -73,7 +65,7 @@ std::string EncodeMavocc(const OccupancyGrid& grid) {
     i = j;
   }
   std::memcpy(out.data() + runs_pos, &runs, sizeof(runs));
-  Put<uint64_t>(&out, Fnv1a64(out.data(), out.size()));
+  Put<uint64_t>(&out, Fnv1a64::Of(out.data(), out.size()));
   return out;
 }
 
@@ -109,7 +101,7 @@ Result<OccupancyGrid> DecodeMavocc(std::string_view data, const std::string& nam
                 std::to_string(kHeaderBytes + runs * kRunBytes + 8) + " bytes), file has " +
                 std::to_string(data.size()) + " bytes (truncated or corrupt)");
   }
-  if (Fnv1a64(data.data(), data.size() - 8) != stored_sum) return loss("checksum mismatch");
+  if (Fnv1a64::Of(data.data(), data.size() - 8) != stored_sum) return loss("checksum mismatch");
   std::string why;
   if (!geometry.IsValid(&why)) return loss(why);
   if (geometry.num_voxels() > max_voxels) {

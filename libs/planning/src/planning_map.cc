@@ -9,8 +9,8 @@
 #include <sstream>
 
 #include "distance_field.h"
-#include "hash.h"
 #include "mav/common/file.h"
+#include "mav/common/hash.h"
 #include "mav/common/time.h"
 
 namespace mav::planning {
@@ -217,11 +217,13 @@ Status FillStates(const octomap::OcTree& tree, const PlanningMap::Impl& m, const
 
 uint64_t Fingerprint(const PlanningMap::Impl& m) {
   Fnv1a64 h;
-  h.Add(m.origin);
-  h.Add(m.size);
+  // Eigen's fixed-size types are not trivially copyable: their coefficients are hashed.
+  auto add = [&h](const auto& v) { h.AddBytes(v.data(), sizeof(*v.data()) * v.size()); };
+  add(m.origin);
+  add(m.size);
   h.Add(m.cell);
-  h.Add(m.planning_bounds.min);
-  h.Add(m.planning_bounds.max);
+  add(m.planning_bounds.min);
+  add(m.planning_bounds.max);
   h.Add(m.options.robot_radius_m);
   h.AddBytes(m.bits.data(), m.bits.size() * sizeof(uint64_t));
   return h.value();

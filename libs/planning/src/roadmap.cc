@@ -11,7 +11,7 @@
 #include <sstream>
 #include <thread>
 
-#include "hash.h"
+#include "mav/common/hash.h"
 #include "mav/common/file.h"
 #include "mav/common/time.h"
 #include "mav/planning/path.h"

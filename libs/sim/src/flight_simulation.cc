@@ -97,6 +97,11 @@ void FlightSimulation::Sense() {
   out_.goal_published = out_.goal_index != previous;
 }
 
+void FlightSimulation::RecordCollision(Collision collision) {
+  ++collision_count_;
+  if (collisions_.size() < kMaxRecordedCollisions) collisions_.push_back(std::move(collision));
+}
+
 void FlightSimulation::CheckCollisions(const GroundContact& contact) {
   const MulticopterState& x = vehicle_.state();
   if (!x.on_ground) lifted_off_ = true;
@@ -104,7 +109,7 @@ void FlightSimulation::CheckCollisions(const GroundContact& contact) {
     std::ostringstream what;
     what.precision(3);
     what << "ground (impact " << contact.impact_speed_mps << " m/s)";
-    collisions_.push_back({out_.t_ns, x.p_world, what.str()});
+    RecordCollision({out_.t_ns, x.p_world, what.str()});
     out_.collision = true;
   }
   if (!world_ || !lifted_off_) return;
@@ -121,7 +126,7 @@ void FlightSimulation::CheckCollisions(const GroundContact& contact) {
     std::ostringstream what;
     what.precision(3);
     what << world_->Describe() << " (clearance " << clearance << " m)";
-    collisions_.push_back({out_.t_ns, x.p_world, what.str()});
+    RecordCollision({out_.t_ns, x.p_world, what.str()});
     out_.collision = true;
   }
   in_contact_ = contact_now;

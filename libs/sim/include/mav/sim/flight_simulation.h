@@ -80,7 +80,11 @@ class FlightSimulation {
   bool done() const;  // t >= the task's duration
   const dataset::FlightTask& task() const { return task_; }
   const Multicopter& vehicle() const { return vehicle_; }
+  // The first kMaxRecordedCollisions contacts (a flight scores zero at the first one; the list
+  // says where it hit); collision_count() counts them all.
+  static constexpr size_t kMaxRecordedCollisions = 1000;
   const std::vector<Collision>& collisions() const { return collisions_; }
+  int64_t collision_count() const { return collision_count_; }
   // The true mounting of pose sensor i.
   const geometry::SE3& T_body_sensor(int i) const { return pose_sensors_[i].T_body_sensor(); }
   int pose_sensor_count() const { return static_cast<int>(pose_sensors_.size()); }
@@ -115,7 +119,9 @@ class FlightSimulation {
   int64_t duration_ns_ = 0;
   int64_t clearance_period_ns_ = 0, next_clearance_ns_ = 0;
   FlightStep out_;
+  void RecordCollision(Collision collision);
   std::vector<Collision> collisions_;
+  int64_t collision_count_ = 0;
   bool lifted_off_ = false;
   bool checking_map_ = false;
   bool in_contact_ = false;

@@ -1,8 +1,7 @@
 #include "mav/transport/grpc_server.h"
 
-#include <condition_variable>
 #include <csignal>
-#include <mutex>
+#include <future>
 
 #include <grpcpp/create_channel.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
@@ -146,21 +145,11 @@ Result<HealthStatus> CheckHealth(const std::shared_ptr<grpc::Channel>& channel,
   grpc::GenericStub stub(channel);
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + timeout);
-  std::mutex mutex;
-  std::condition_variable done_cv;
-  bool done = false;
-  grpc::Status rpc_status;
+  std::promise<grpc::Status> done;
+  std::future<grpc::Status> answer = done.get_future();
   stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request_buffer,
-                 &response_buffer, [&](grpc::Status s) {
-                   std::lock_guard<std::mutex> lock(mutex);
-                   rpc_status = std::move(s);
-                   done = true;
-                   done_cv.notify_one();
-                 });
-  {
-    std::unique_lock<std::mutex> lock(mutex);
-    done_cv.wait(lock, [&] { return done; });
-  }
+                 &response_buffer, [&done](grpc::Status s) { done.set_value(std::move(s)); });
+  const grpc::Status rpc_status = answer.get();
   if (!rpc_status.ok()) {
     if (rpc_status.error_code() == grpc::StatusCode::NOT_FOUND)
       return HealthStatus::kServiceUnknown;

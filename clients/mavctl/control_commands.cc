@@ -16,6 +16,7 @@
 #include "mav/v1/control.grpc.pb.h"
 #include "mav/v1/simulator.grpc.pb.h"
 
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "mav/transport/flags.h"
 #include "services/control/convert.h"
@@ -182,7 +183,7 @@ int Configure(const std::vector<std::string>& args) {
   flags.AddString("plant-map", &plant_map, "--task t4_3: the power plant's OctoMap");
   ParseOrExit(&flags, &connection, args);
   if (controller != "paper" && controller != "lee") {
-    return Usage("--controller: '" + controller + "' is not paper or lee");
+    return Usage("--controller: " + QuoteForError(controller) + " is not paper or lee");
   }
   const control::ControllerType type =
       controller == "lee" ? control::ControllerType::kLee : control::ControllerType::kPaper;

@@ -9,6 +9,7 @@
 #include "mav_sensors.h"
 #include "mav_state.h"
 
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "services/common/dds_codec.h"
 
@@ -64,7 +65,8 @@ double Percentile(std::vector<double> values, double p) {
 
 bool ListenOptions::IsValid(std::string* why) const {
   if (topic != "stereo" && topic != "imu" && topic != "ground_truth" && topic != "all") {
-    if (why != nullptr) *why = "--topic: '" + topic + "' is not one of stereo|imu|ground_truth|all";
+    if (why != nullptr)
+      *why = "--topic: " + QuoteForError(topic) + " is not one of stereo|imu|ground_truth|all";
     return false;
   }
   if (frames < 0) {

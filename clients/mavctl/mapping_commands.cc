@@ -17,6 +17,7 @@
 
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "mav/transport/flags.h"
 #include "mav/transport/grpc_server.h"
@@ -81,7 +82,8 @@ Result<v1::MappingMethod> ParseMethod(const std::string& text, bool allow_empty)
   if (text == "sparse-mesh") return v1::MAPPING_METHOD_SPARSE_MESH;
   if (text == "octomap") return v1::MAPPING_METHOD_OCTOMAP;
   if (text.empty() && allow_empty) return v1::MAPPING_METHOD_UNSPECIFIED;
-  return Status::InvalidArgument("--method: '" + text + "' is not sparse-mesh or octomap");
+  return Status::InvalidArgument("--method: " + QuoteForError(text) +
+                                 " is not sparse-mesh or octomap");
 }
 
 const char* MethodText(v1::MappingMethod method) {
@@ -183,7 +185,8 @@ int Start(const std::vector<std::string>& args) {
   } else if (pose_source == "none") {
     request.set_pose_source(v1::POSE_SOURCE_NONE);
   } else {
-    return Usage("--pose-source: '" + pose_source + "' is not ground-truth, localization or none");
+    return Usage("--pose-source: " + QuoteForError(pose_source) +
+                 " is not ground-truth, localization or none");
   }
   if (max_keyframes < 0 || features < 0) {
     return Usage("--max-keyframes/--features: must be >= 0");
@@ -301,7 +304,7 @@ int Build(const std::vector<std::string>& args) {
   } else if (unknown == "free") {
     request.set_unknown(v1::UNKNOWN_HANDLING_AS_FREE);
   } else {
-    return Usage("--unknown: '" + unknown + "' is not keep, occupied or free");
+    return Usage("--unknown: " + QuoteForError(unknown) + " is not keep, occupied or free");
   }
   auto stub = Connect(connection);
   v1::BuildMapResponse response;
@@ -328,7 +331,7 @@ int Occupancy(const std::vector<std::string>& args) {
   Result<v1::MappingMethod> parsed = ParseMethod(method, true);
   if (!parsed.ok()) return Usage(parsed.status().message());
   if (format != "bt" && format != "mavocc") {
-    return Usage("--format: '" + format + "' is not bt or mavocc");
+    return Usage("--format: " + QuoteForError(format) + " is not bt or mavocc");
   }
   v1::GetOccupancyRequest request;
   request.set_method(*parsed);

@@ -9,6 +9,7 @@
 
 #include "mav/v1/simulator.grpc.pb.h"
 
+#include "mav/common/text.h"
 #include "mav/dataset/euroc.h"
 #include "services/common/grpc_status.h"
 
@@ -21,7 +22,7 @@ Result<RigCalibration> CalibrationFromEuroc(const std::string& directory) {
   namespace fs = std::filesystem;
   std::error_code error;
   if (!fs::is_directory(directory, error)) {
-    return Status::NotFound(field + ": '" + directory + "' is not a directory");
+    return Status::NotFound(field + ": " + QuoteForError(directory) + " is not a directory");
   }
   // The directory holding mav0/, or mav0/ itself.
   fs::path mav0 = fs::path(directory) / "mav0";

@@ -5,6 +5,7 @@
 
 #include "mav/common/check.h"
 #include "mav/common/log.h"
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 
 namespace mav::control_service {
@@ -32,8 +33,8 @@ bool ControlConfig::IsValid(std::string* why) const {
     if (pose_frames[i].size() > 32) return fail(field + ": longer than 32 characters (the IDL's)");
     for (size_t j = 0; j < i; ++j) {
       if (pose_frames[j] == pose_frames[i]) {
-        return fail(field + ": '" + pose_frames[i] + "' is pose_sources[" + std::to_string(j) +
-                    "]'s too");
+        return fail(field + ": " + QuoteForError(pose_frames[i]) + " is pose_sources[" +
+                    std::to_string(j) + "]'s too");
       }
     }
   }
@@ -157,8 +158,8 @@ void ControlCore::OnPose(const std::string& frame_id, int64_t t_ns,
   const auto it = std::find(frames.begin(), frames.end(), frame_id);
   if (it == frames.end()) {
     ++poses_rejected_;
-    last_error_ = "pose: unknown child_frame_id '" + frame_id + "' (configured: " + frames[0] +
-                  (frames.size() > 1 ? ", ..." : "") + ")";
+    last_error_ = "pose: unknown child_frame_id " + QuoteForError(frame_id) +
+                  " (configured: " + frames[0] + (frames.size() > 1 ? ", ..." : "") + ")";
     return;
   }
   control::PoseMeasurement pose;

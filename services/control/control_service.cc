@@ -10,6 +10,7 @@
 #include "mav/v1/planning.grpc.pb.h"
 
 #include "mav/common/log.h"
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "services/common/grpc_status.h"
 
@@ -52,8 +53,9 @@ Result<geometry::PolynomialTrajectory> FetchPlan(const v1::PlanRef& plan,
     Status s = OutgoingCallStatus(rpc, what, "mav-planning");
     switch (s.code()) {
       case StatusCode::kNotFound:
-        return Status::NotFound("plan.plan_id: '" + plan.plan_id() + "' unknown to " +
-                                plan.planning_address() + " (" + rpc.error_message() + ")");
+        return Status::NotFound("plan.plan_id: " + QuoteForError(plan.plan_id()) + " unknown to " +
+                                QuoteForError(plan.planning_address()) + " (" +
+                                rpc.error_message() + ")");
       case StatusCode::kDeadlineExceeded:
         if (deadline.ShouldStop()) return s;  // the client's own deadline
         return Status::Unavailable(what + ": no answer within " + std::to_string(timeout_ms) +
@@ -67,7 +69,8 @@ Result<geometry::PolynomialTrajectory> FetchPlan(const v1::PlanRef& plan,
   }
   if (response.status() != v1::PLAN_STATUS_SUCCESS) {
     return Status::FailedPrecondition(
-        "plan.plan_id: '" + plan.plan_id() + "' is " + v1::PlanStatus_Name(response.status()) +
+        "plan.plan_id: " + QuoteForError(plan.plan_id()) + " is " +
+        v1::PlanStatus_Name(response.status()) +
         (response.message().empty() ? "" : ": " + response.message()));
   }
   return TrajectoryFromProto(response.trajectory(), "plan.trajectory");

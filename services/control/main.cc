@@ -3,6 +3,7 @@
 // rotor speeds on mav/control/actuators (Cyclone DDS, data plane). docs/services.md lists flags.
 
 #include "mav/common/log.h"
+#include "mav/common/text.h"
 #include "mav/transport/service_main.h"
 #include "services/control/control_core.h"
 #include "services/control/control_service.h"
@@ -33,7 +34,7 @@ int main(int argc, char** argv) {
                         "longest wait for Planning.GetPlan in SetTrajectory");
   runner.ParseFlagsOrExit(argc, argv);
   if (controller != "paper" && controller != "lee") {
-    return runner.Usage("--controller: '" + controller + "' is not paper or lee");
+    return runner.Usage("--controller: " + mav::QuoteForError(controller) + " is not paper or lee");
   }
   if (task.empty() && (lockstep || runner.flags().WasSet("controller"))) {
     return runner.Usage("--controller/--lockstep need --task");

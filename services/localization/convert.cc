@@ -7,6 +7,8 @@
 #include <sstream>
 #include <tuple>
 
+#include "mav/common/text.h"
+
 namespace mav::localization_service {
 
 using service_common::Number;
@@ -160,7 +162,8 @@ Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& 
   } else if (frame == "cam0") {
     o.output_frame = OutputFrame::kCam0;
   } else {
-    return Status::InvalidArgument("output_frame: '" + frame + "' is not body or cam0");
+    return Status::InvalidArgument("output_frame: " + QuoteForError(frame) +
+                                   " is not body or cam0");
   }
   if (request.queue_length() > 100) {
     return Status::InvalidArgument("queue_length: must be <= 100, got " +

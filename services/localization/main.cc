@@ -3,6 +3,7 @@
 // docs/services.md lists flags and environment.
 
 #include "mav/common/log.h"
+#include "mav/common/text.h"
 #include "mav/localization/odometry.h"
 #include "mav/transport/service_main.h"
 #include "services/common/calibration_source.h"
@@ -29,8 +30,8 @@ int main(int argc, char** argv) {
   if (!method.empty()) {
     const auto parsed = mav::localization::ParseMethod(method);
     if (!parsed.has_value()) {
-      return runner.Usage("--method: unknown method '" + method +
-                          "' (sparse-pixel|sparse-subpixel|dense)");
+      return runner.Usage("--method: unknown method " + mav::QuoteForError(method) +
+                          " (sparse-pixel|sparse-subpixel|dense)");
     }
     startup.set_method(mav::localization_service::ToProto(*parsed));
   }

@@ -3,6 +3,7 @@
 // docs/services.md lists flags and environment.
 
 #include "mav/common/log.h"
+#include "mav/common/text.h"
 #include "mav/transport/service_main.h"
 #include "services/common/calibration_source.h"
 #include "services/mapping/dds_io.h"
@@ -42,8 +43,8 @@ int main(int argc, char** argv) {
   } else if (pose_source == "none") {
     startup.set_pose_source(mav::v1::POSE_SOURCE_NONE);
   } else if (!pose_source.empty()) {
-    return runner.Usage("--pose-source: unknown source '" + pose_source +
-                        "' (ground-truth|localization|none)");
+    return runner.Usage("--pose-source: unknown source " + mav::QuoteForError(pose_source) +
+                        " (ground-truth|localization|none)");
   }
   auto source = calibration.Source(!pose_source.empty(), "--pose-source");
   if (!source.ok()) return runner.Usage(source.status().message());

@@ -6,6 +6,8 @@
 //   mavctl sim occupancy --out FILE [--resolution 0.05] [--format bt|mavocc]
 //   mavctl health [--port P] [--service NAME]
 //   mavctl listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]
+//   mavctl loc ... | map ... | plan ...   (localization_commands.h, mapping_commands.h,
+//                                          plan_commands.h)
 //
 // Every RPC has a deadline (--timeout, default 10 s). Exit status: 0 success, 1 the call failed
 // (message on stderr names the address and the status), 2 usage error.
@@ -28,6 +30,7 @@
 #include "clients/mavctl/listen.h"
 #include "clients/mavctl/localization_commands.h"
 #include "clients/mavctl/mapping_commands.h"
+#include "clients/mavctl/plan_commands.h"
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
 #include "mav/common/time.h"
@@ -57,6 +60,7 @@ constexpr char kUsage[] =
     "  loc configure --method sparse-pixel|sparse-subpixel|dense [--euroc DIR | --simulator ADDR]\n"
     "  loc reset | loc status | loc trajectory --out FILE.tum   (port 50052)\n"
     "  map start|reset|insert|build|occupancy|query|mesh|status  (mavctl map --help; port 50053)\n"
+    "  plan load|roadmap|path|legs|get|sample|status  (mavctl plan --help; port 50054)\n"
     "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
     "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
 
@@ -365,6 +369,7 @@ int main(int argc, char** argv) {
   if (command == "listen") return ListenCommand(args);
   if (command == "loc") return mav::mavctl::LocalizationCommand(args);
   if (command == "map") return mav::mavctl::MappingCommand(args);
+  if (command == "plan") return mav::mavctl::PlanCommand(args);
   std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }

@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
                   "milestones of a roadmap built at start-up");
   flags.AddUint64("roadmap-seed", &startup.roadmap_seed, "seed of a roadmap built at start-up");
   flags.AddInt("max-plans-in-flight", &max_plans,
-               "PlanPath calls computed at once, beyond which RESOURCE_EXHAUSTED (0 = 4 x cores)");
+               "PlanPath calls computed at once, beyond which RESOURCE_EXHAUSTED (0 = 2 x cores)");
   flags.AddInt("max-map-memory-mb", &max_map_memory_mb,
                "largest map grids accepted, MiB (RESOURCE_EXHAUSTED above, before allocating)");
   flags.AddUint64("max-milestones", &core_options.max_milestones,

@@ -58,7 +58,7 @@ bool PlannerCoreOptions::IsValid(std::string* why) const {
 
 int PlannerCoreOptions::PlansInFlightLimit() const {
   if (max_plans_in_flight > 0) return max_plans_in_flight;
-  return 4 * static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return 2 * static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
 // Clears the core's busy flag when the last copy of the slot goes.

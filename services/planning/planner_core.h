@@ -48,10 +48,10 @@ namespace mav::planning_service {
 
 struct PlannerCoreOptions {
   // Plans computed at once; one more is refused with RESOURCE_EXHAUSTED at once (overload is
-  // signalled instead of queued behind the cores). 0 = 4 x the hardware threads: a plan is
-  // CPU-bound (~3 ms median on the power plant), so more in flight only adds latency, while a
-  // few more than the cores hide the RPC and scheduling gaps (docs/benchmarks.md, "Planning
-  // service", has the measurements). Validated [0, 1024].
+  // signalled instead of queued behind the cores). 0 = 2 x the hardware threads: a plan is
+  // CPU-bound (~3 ms median on the power plant), so beyond the cores more in flight only adds
+  // latency; on 2 cores 4 clients reach the most plans/s and 8 only add 50 % to the p99
+  // (docs/benchmarks.md, "Planning service"). Validated [0, 1024].
   int max_plans_in_flight = 0;
   // A map whose grids (obstacle bits + distance map) would need more bytes is refused with
   // RESOURCE_EXHAUSTED before they are allocated. 2 GiB: the power plant needs 49 MB.

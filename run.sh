@@ -6,8 +6,12 @@
 #   4. mav-eval localization runs the three stereo VO methods on it and prints the paper's
 #      Tables 1 and 2 beside ours;
 #   5. mav-eval mapping builds both maps (sparse meshing, OctoMap + dense stereo) from the same
-#      keyframes and prints the paper's Tables 3 and 4 beside ours.
-# Environment: FRAMES (default 300), PRESET (room-easy), OUT (out/), MAV_SIM_PORT (50051).
+#      keyframes and prints the paper's Tables 3 and 4 beside ours;
+#   6. mav-planning loads the contest's power_plant.bt (../shared/data) with a PRM* roadmap
+#      (built once into OUT/power_plant.mavprm, ~15 s, then loaded in under a second) and
+#      mavctl plans the t4_3 legs through it and prints the table with the paper's figures.
+# Environment: FRAMES (default 300), PRESET (room-easy), OUT (out/), MAV_SIM_PORT (50051),
+# MAV_PLANNING_PORT (50054).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 "$repo/deploy/setup.sh"
@@ -24,7 +28,7 @@ export MAV_DDS_DOMAIN="${MAV_DDS_DOMAIN:-$(( ($$ % 200) + 1 ))}"
 
 step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
-step "1/5 rendering $frames frames of $preset into $data"
+step "1/6 rendering $frames frames of $preset into $data"
 if [[ -f "$data/ground_truth/scenario.yaml" ]]; then
   echo "(already there; delete $data to render again)"
 else
@@ -32,11 +36,17 @@ else
 fi
 "$bin/mav-sim" info "$data"
 
-step "2/5 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
+step "2/6 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
 "$bin/mav-simulator" --port "$port" > "$out/mav-simulator.log" 2>&1 &
 sim_pid=$!
+plan_pid=""
 cleanup() { kill "$sim_pid" 2>/dev/null || true; wait "$sim_pid" 2>/dev/null || true; }
-trap cleanup EXIT
+cleanup_planning() {
+  [[ -n "$plan_pid" ]] || return 0
+  kill "$plan_pid" 2>/dev/null || true
+  wait "$plan_pid" 2>/dev/null || true
+}
+trap 'cleanup; cleanup_planning' EXIT
 for _ in $(seq 50); do
   "$bin/mavctl" health --port "$port" > /dev/null 2>&1 && break
   kill -0 "$sim_pid" 2>/dev/null || { cat "$out/mav-simulator.log"; exit 1; }
@@ -45,7 +55,7 @@ done
 "$bin/mavctl" health --port "$port"
 "$bin/mavctl" sim load --euroc "$data" --port "$port"
 
-step "3/5 replaying in real time over DDS; mavctl listen reports what arrived"
+step "3/6 replaying in real time over DDS; mavctl listen reports what arrived"
 "$bin/mavctl" listen --topic all --frames "$frames" --timeout 60 &
 listen_pid=$!
 sleep 1  # let DDS discovery match the listener before the first frame
@@ -56,8 +66,28 @@ wait "$listen_pid" || listen_status=$?
 [[ $listen_status -eq 0 ]] || { echo "mavctl listen failed ($listen_status)" >&2; exit "$listen_status"; }
 
 cleanup  # the simulator's work is done; free the cores for the evaluation
-step "4/5 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
+step "4/6 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
 "$bin/mav-eval" localization --data "$data" --json "$out/localization-$preset-$frames.json"
 
-step "5/5 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
+step "5/6 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
 "$bin/mav-eval" mapping --data "$data" --json "$out/mapping-$preset-$frames.json"
+
+step "6/6 planning: the t4_3 legs on power_plant.bt through mav-planning"
+plant="$repo/../shared/data/power_plant.bt"
+plan_port="${MAV_PLANNING_PORT:-50054}"
+if [[ ! -f "$plant" ]]; then
+  echo "(no $plant here: skipped)"
+  exit 0
+fi
+[[ -f "$out/power_plant.mavprm" ]] || echo "(building the roadmap once into $out/power_plant.mavprm, ~15 s)"
+"$bin/mav-planning" --port "$plan_port" --map "$plant" --roadmap "$out/power_plant.mavprm" \
+  > "$out/mav-planning.log" 2>&1 &
+plan_pid=$!
+for _ in $(seq 600); do
+  "$bin/mavctl" health --port "$plan_port" > /dev/null 2>&1 && break
+  kill -0 "$plan_pid" 2>/dev/null || { cat "$out/mav-planning.log"; exit 1; }
+  sleep 0.2
+done
+"$bin/mavctl" plan status --port "$plan_port"
+"$bin/mavctl" plan legs --port "$plan_port" --points "2,-27,15;20,-15,15;25,0,5;0,0,1"
+cleanup_planning

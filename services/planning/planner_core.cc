@@ -1,5 +1,6 @@
 #include "services/planning/planner_core.h"
 
+#include <chrono>
 #include <cstdio>
 #include <fstream>
 #include <string_view>
@@ -30,6 +31,34 @@ bool LooksLikeRoadmapFile(const std::string& path) {
   in.read(head.data(), static_cast<std::streamsize>(head.size()));
   return in.gcount() == static_cast<std::streamsize>(head.size()) && head == kRoadmapMagic;
 }
+
+// Raises `flag` once `gone()` turns true, polling every 20 ms, until destroyed (joined). One
+// per long operation or fresh-PRM* plan, so the client's cancellation stops the work.
+class GoneWatcher {
+ public:
+  GoneWatcher(const std::function<bool()>& gone, const CancelFlag& flag) {
+    if (!gone) return;
+    thread_ = std::thread([this, gone, flag] {
+      while (!done_.load()) {
+        if (gone()) {
+          flag.Cancel();
+          return;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+    });
+  }
+  ~GoneWatcher() {
+    done_.store(true);
+    if (thread_.joinable()) thread_.join();
+  }
+  GoneWatcher(const GoneWatcher&) = delete;
+  GoneWatcher& operator=(const GoneWatcher&) = delete;
+
+ private:
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
 
 std::string InstancePrefix() {
   char buf[16];
@@ -90,6 +119,10 @@ PlannerCore::~PlannerCore() { Shutdown(); }
 
 void PlannerCore::Shutdown() {
   shutdown_.Cancel();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (operation_cancel_) operation_cancel_->Cancel();
+  }
   queue_.Stop("the planning service is shutting down");
 }
 
@@ -123,21 +156,27 @@ void PlannerCore::RecordError(const Status& status) {
 }
 
 template <typename T, typename Fn>
-Result<T> PlannerCore::RunOnWorker(const Slot& slot, const Termination& deadline, const char* what,
+Result<T> PlannerCore::RunOnWorker(const Slot& slot, const CallStop& stop, const char* what,
                                    Fn work) {
-  const Termination stop = deadline.WithCancel(shutdown_);
+  CancelFlag cancel;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    operation_cancel_ = cancel;
+  }
+  const Termination until = stop.deadline.WithCancel(cancel);
+  const GoneWatcher watcher(stop.client_gone, cancel);
   // The task holds a copy of the slot: the slot stays taken until the worker is done with it,
   // even when the caller gives up at its deadline and the task runs on to its next poll.
   Ticket<Result<T>> ticket = queue_.Submit<Result<T>>(
-      [slot, stop, work](const TaskContext&) -> Result<T> { return work(stop); },
-      QueuePolicy::kReject, stop);
-  Result<T> result = ticket.Wait(stop);
+      [slot, until, work](const TaskContext&) -> Result<T> { return work(until); },
+      QueuePolicy::kReject, until);
+  Result<T> result = ticket.Wait(until);
   if (!result.ok()) {
     RecordError(result.status());
     return result.status();
   }
   // A product that arrives after the client's deadline is dropped: the call changes nothing.
-  if (Status s = stop.Check(what); !s.ok()) {
+  if (Status s = until.Check(what); !s.ok()) {
     RecordError(s);
     return s;
   }
@@ -157,18 +196,17 @@ Status PlannerCore::Install(std::shared_ptr<const Snapshot> next,
 
 Result<planning::MapInfo> PlannerCore::LoadMapFile(const std::string& path,
                                                    planning::MapOptions options,
-                                                   const Termination& deadline) {
+                                                   const CallStop& stop) {
   MAV_ASSIGN_OR_RETURN(Slot slot, Reserve("LoadMap"));
   options.max_memory_bytes = options_.max_map_memory_bytes;
   options.threads = options_.threads;
   using MapPtr = std::shared_ptr<const planning::PlanningMap>;
   MAV_ASSIGN_OR_RETURN(
-      MapPtr map, RunOnWorker<MapPtr>(
-                      slot, deadline, "LoadMap", [this, path, options](const Termination& stop) {
-                        return planning::PlanningMap::LoadFile(
-                            path, options, stop,
-                            [this](std::string_view s, double f) { SetProgress(s, f); });
-                      }));
+      MapPtr map,
+      RunOnWorker<MapPtr>(slot, stop, "LoadMap", [this, path, options](const Termination& until) {
+        return planning::PlanningMap::LoadFile(
+            path, options, until, [this](std::string_view s, double f) { SetProgress(s, f); });
+      }));
   auto next = std::make_shared<Snapshot>();
   next->map = map;
   MAV_RETURN_IF_ERROR(Install(std::move(next), nullptr));
@@ -181,7 +219,7 @@ Result<planning::MapInfo> PlannerCore::LoadMapFile(const std::string& path,
 Result<planning::MapInfo> PlannerCore::LoadMapBytes(Slot slot, std::string bytes,
                                                     const std::string& source,
                                                     planning::MapOptions options,
-                                                    const Termination& deadline) {
+                                                    const CallStop& stop) {
   MAV_CHECK(slot != nullptr) << "LoadMapBytes needs a reserved slot";
   options.max_memory_bytes = options_.max_map_memory_bytes;
   options.threads = options_.threads;
@@ -189,10 +227,10 @@ Result<planning::MapInfo> PlannerCore::LoadMapBytes(Slot slot, std::string bytes
   auto shared_bytes = std::make_shared<const std::string>(std::move(bytes));
   MAV_ASSIGN_OR_RETURN(
       MapPtr map,
-      RunOnWorker<MapPtr>(slot, deadline, "LoadMap",
-                          [this, shared_bytes, source, options](const Termination& stop) {
+      RunOnWorker<MapPtr>(slot, stop, "LoadMap",
+                          [this, shared_bytes, source, options](const Termination& until) {
                             return planning::PlanningMap::LoadBytes(
-                                *shared_bytes, source, options, stop,
+                                *shared_bytes, source, options, until,
                                 [this](std::string_view s, double f) { SetProgress(s, f); });
                           }));
   auto next = std::make_shared<Snapshot>();
@@ -204,7 +242,7 @@ Result<planning::MapInfo> PlannerCore::LoadMapBytes(Slot slot, std::string bytes
 }
 
 Result<planning::RoadmapInfo> PlannerCore::BuildRoadmap(planning::RoadmapOptions options,
-                                                        const Termination& deadline) {
+                                                        const CallStop& stop) {
   if (options.max_milestones > options_.max_milestones) {
     return Status::ResourceExhausted("max_milestones: " + std::to_string(options.max_milestones) +
                                      " is above the server's limit of " +
@@ -220,9 +258,9 @@ Result<planning::RoadmapInfo> PlannerCore::BuildRoadmap(planning::RoadmapOptions
   MAV_ASSIGN_OR_RETURN(
       RoadmapPtr roadmap,
       RunOnWorker<RoadmapPtr>(
-          slot, deadline, "BuildRoadmap", [this, map, options](const Termination& stop) {
+          slot, stop, "BuildRoadmap", [this, map, options](const Termination& until) {
             return planning::Roadmap::Build(
-                *map, options, stop, [this](std::string_view s, double f) { SetProgress(s, f); });
+                *map, options, until, [this](std::string_view s, double f) { SetProgress(s, f); });
           }));
   auto next = std::make_shared<Snapshot>();
   next->map = map;
@@ -235,7 +273,7 @@ Result<planning::RoadmapInfo> PlannerCore::BuildRoadmap(planning::RoadmapOptions
 }
 
 Result<planning::RoadmapInfo> PlannerCore::LoadRoadmap(const std::string& path,
-                                                       const Termination& deadline) {
+                                                       const CallStop& stop) {
   const std::shared_ptr<const Snapshot> current = snapshot_.load();
   if (current == nullptr) return Status::FailedPrecondition("no map: call LoadMap first");
   MAV_ASSIGN_OR_RETURN(Slot slot, Reserve("LoadRoadmap"));
@@ -243,7 +281,7 @@ Result<planning::RoadmapInfo> PlannerCore::LoadRoadmap(const std::string& path,
   using RoadmapPtr = std::shared_ptr<const planning::Roadmap>;
   MAV_ASSIGN_OR_RETURN(
       RoadmapPtr roadmap,
-      RunOnWorker<RoadmapPtr>(slot, deadline, "LoadRoadmap", [this, map, path](const Termination&) {
+      RunOnWorker<RoadmapPtr>(slot, stop, "LoadRoadmap", [this, map, path](const Termination&) {
         SetProgress("roadmap file", 0);
         return planning::Roadmap::Load(path, *map);
       }));
@@ -258,7 +296,7 @@ Result<planning::RoadmapInfo> PlannerCore::LoadRoadmap(const std::string& path,
 }
 
 Result<planning::RoadmapInfo> PlannerCore::SaveRoadmap(const std::string& path,
-                                                       const Termination& deadline) {
+                                                       const CallStop& stop) {
   if (!EndsWith(path, ".mavprm")) {
     return Status::InvalidArgument("path: '" + path.substr(0, 256) + "' must end in \".mavprm\"");
   }
@@ -274,7 +312,7 @@ Result<planning::RoadmapInfo> PlannerCore::SaveRoadmap(const std::string& path,
   const std::shared_ptr<const planning::Roadmap> roadmap = current->roadmap;
   using Info = planning::RoadmapInfo;
   MAV_ASSIGN_OR_RETURN(Info info,
-                       RunOnWorker<Info>(slot, deadline, "SaveRoadmap",
+                       RunOnWorker<Info>(slot, stop, "SaveRoadmap",
                                          [this, roadmap, path](const Termination&) -> Result<Info> {
                                            SetProgress("roadmap file", 0);
                                            MAV_RETURN_IF_ERROR(roadmap->Save(path));
@@ -287,8 +325,7 @@ Result<planning::RoadmapInfo> PlannerCore::SaveRoadmap(const std::string& path,
   return info;
 }
 
-Result<PlanOutcome> PlannerCore::Plan(const planning::PlanRequest& request,
-                                      const Termination& deadline) {
+Result<PlanOutcome> PlannerCore::Plan(const planning::PlanRequest& request, const CallStop& stop) {
   const std::shared_ptr<const Snapshot> snapshot = snapshot_.load();
   if (snapshot == nullptr) {
     RecordFailed();
@@ -303,8 +340,14 @@ Result<PlanOutcome> PlannerCore::Plan(const planning::PlanRequest& request,
                                      " plans in flight, the server's limit "
                                      "(--max-plans-in-flight); retry later");
   }
-  Result<planning::PlanResult> result = planning::PlanPath(*snapshot->map, snapshot->roadmap.get(),
-                                                           request, deadline.WithCancel(shutdown_));
+  // A fresh PRM* runs its whole time budget (up to 600 s): it watches the client too.
+  const bool fresh = snapshot->roadmap == nullptr || !request.use_roadmap;
+  const CancelFlag cancel = fresh ? CancelFlag() : shutdown_;
+  std::optional<GoneWatcher> watcher;
+  if (fresh) watcher.emplace(stop.client_gone, cancel);
+  Result<planning::PlanResult> result = planning::PlanPath(
+      *snapshot->map, snapshot->roadmap.get(), request, stop.deadline.WithCancel(cancel));
+  watcher.reset();
   in_flight_.fetch_sub(1);
   if (!result.ok()) {
     RecordFailed();

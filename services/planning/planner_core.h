@@ -15,10 +15,13 @@
 //   planning::PlanPath on it without locks; a rebuild or reload swaps the pointer and never
 //   blocks or breaks the plans in flight, which finish on the snapshot they took.
 //
-// Deadlines: every call takes the client's Termination. A long operation stops when it fires
-// (the library polls it) and keeps nothing: the worker returns its product, the calling thread
-// installs it only if the deadline has not passed. A plan is stopped by the library
-// (DEADLINE_EXCEEDED) and is stored (StorePlan) only by a caller that checked its deadline first.
+// Deadlines: every call takes a CallStop: the client's deadline and whether the client went away
+// (a cancelled call; gRPC also cancels the calls still running when a shutdown's grace period
+// ends). A long operation stops when either fires (the library polls them) and keeps nothing: the
+// worker returns its product, the calling thread installs it only if the deadline has not passed.
+// A plan is stopped by the library (DEADLINE_EXCEEDED) and is stored (StorePlan) only by a
+// caller that checked its deadline first; a plan on the roadmap takes milliseconds and watches
+// only its deadline, a fresh PRM* (no roadmap) watches the client too.
 //
 // Memory, all bounded by options: a map's grids are refused above max_map_memory_bytes before
 // they are allocated (planning::EstimateMapMemory); a roadmap of more than max_milestones is
@@ -32,8 +35,10 @@
 #include <atomic>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 
 #include "mav/common/stats.h"
@@ -65,6 +70,12 @@ struct PlannerCoreOptions {
   bool IsValid(std::string* why) const;
   // max_plans_in_flight with 0 resolved.
   int PlansInFlightLimit() const;
+};
+
+// How a call ends early (see the file comment).
+struct CallStop {
+  Termination deadline;               // the client's (Never without one)
+  std::function<bool()> client_gone;  // polled every 20 ms while the call waits; may be empty
 };
 
 // What plans run against. Immutable once published; plans in flight keep theirs alive.
@@ -131,28 +142,28 @@ class PlannerCore {
   // roadmap. DEADLINE_EXCEEDED / CANCELLED: nothing replaced. `options.max_memory_bytes` and
   // `options.threads` are the server's.
   Result<planning::MapInfo> LoadMapFile(const std::string& path, planning::MapOptions options,
-                                        const Termination& deadline);
+                                        const CallStop& stop);
   // The same from bytes (an upload, the mapping service's map) under a reserved slot.
   Result<planning::MapInfo> LoadMapBytes(Slot slot, std::string bytes, const std::string& source,
-                                         planning::MapOptions options, const Termination& deadline);
+                                         planning::MapOptions options, const CallStop& stop);
 
   // Builds a roadmap on the current map and installs it. FAILED_PRECONDITION without a map;
   // RESOURCE_EXHAUSTED above max_milestones or when busy; the library's INVALID_ARGUMENT;
   // DEADLINE_EXCEEDED / CANCELLED: nothing kept.
   Result<planning::RoadmapInfo> BuildRoadmap(planning::RoadmapOptions options,
-                                             const Termination& deadline);
+                                             const CallStop& stop);
   // Loads a roadmap file of the current map (library: NOT_FOUND, DATA_LOSS, FAILED_PRECONDITION
   // for another map) and installs it.
-  Result<planning::RoadmapInfo> LoadRoadmap(const std::string& path, const Termination& deadline);
+  Result<planning::RoadmapInfo> LoadRoadmap(const std::string& path, const CallStop& stop);
   // Saves the current roadmap. FAILED_PRECONDITION without one, or when `path` exists and is not
   // a roadmap file (never overwritten); INVALID_ARGUMENT "path: ..." unless it ends in
   // ".mavprm"; IO_ERROR naming the file.
-  Result<planning::RoadmapInfo> SaveRoadmap(const std::string& path, const Termination& deadline);
+  Result<planning::RoadmapInfo> SaveRoadmap(const std::string& path, const CallStop& stop);
 
   // Plans on the current snapshot (see the file comment). FAILED_PRECONDITION without a map;
   // RESOURCE_EXHAUSTED when max_plans_in_flight plans run; the library's INVALID_ARGUMENT and
   // DEADLINE_EXCEEDED / CANCELLED.
-  Result<PlanOutcome> Plan(const planning::PlanRequest& request, const Termination& deadline);
+  Result<PlanOutcome> Plan(const planning::PlanRequest& request, const CallStop& stop);
   // Counts an answered Plan (the statistics of GetStatus): `handler_ms` is the caller's whole
   // time for it, `success` whether the plan reached SUCCESS.
   void RecordAnswered(bool success, double handler_ms);
@@ -174,10 +185,10 @@ class PlannerCore {
  private:
   struct SlotState;
 
-  // Runs `work` on the worker under `slot` with `deadline` (and the shutdown flag), waits for
-  // it, then checks the deadline: a late product is dropped.
+  // Runs `work` on the worker under `slot` until `stop` (or Shutdown) ends it, waits for it,
+  // then checks the deadline: a late product is dropped.
   template <typename T, typename Fn>
-  Result<T> RunOnWorker(const Slot& slot, const Termination& deadline, const char* what, Fn work);
+  Result<T> RunOnWorker(const Slot& slot, const CallStop& stop, const char* what, Fn work);
   // Installs `next` as the snapshot when `expected_map` is still the current map (else
   // FAILED_PRECONDITION: the map changed while the operation ran).
   Status Install(std::shared_ptr<const Snapshot> next,
@@ -187,7 +198,7 @@ class PlannerCore {
   const PlannerCoreOptions options_;
   const int max_in_flight_;
   const std::string id_prefix_;  // plan ids "<prefix>-<n>": distinct across server restarts
-  CancelFlag shutdown_;
+  CancelFlag shutdown_;          // plans on the roadmap
   WorkQueue queue_;
   std::atomic<std::shared_ptr<const Snapshot>> snapshot_;
   std::atomic<int> in_flight_{0};
@@ -195,6 +206,7 @@ class PlannerCore {
   mutable std::mutex mutex_;
   // Guarded by mutex_.
   bool busy_ = false;
+  std::optional<CancelFlag> operation_cancel_;  // of the long operation running, for Shutdown
   std::string operation_;
   std::string stage_;
   double fraction_ = 0;

@@ -27,6 +27,12 @@ using service_common::ToGrpcStatus;
 // The longest an echoed path may be in a message.
 constexpr size_t kEchoBytes = 256;
 
+// The call's deadline and its cancellation (by the client, or by the server at the end of a
+// shutdown's grace period), for the core.
+CallStop StopOf(grpc::ServerContext* context) {
+  return {CallTermination(*context), [context] { return context->IsCancelled(); }};
+}
+
 std::string Echo(const std::string& s) {
   return s.size() <= kEchoBytes ? s : s.substr(0, kEchoBytes) + "...";
 }
@@ -145,21 +151,21 @@ grpc::Status PlanningService::LoadMap(grpc::ServerContext* context,
     return ToGrpcStatus(Status::InvalidArgument("mapping.address: empty"));
   }
   if (Status s = CheckDeadline(*context, "LoadMap"); !s.ok()) return ToGrpcStatus(s);
-  const Termination deadline = CallTermination(*context);
+  const CallStop stop = StopOf(context);
   Result<planning::MapInfo> info = Status::Internal("unreachable");
   if (request->has_file()) {
-    info = core_->LoadMapFile(request->file().path(), *options, deadline);
+    info = core_->LoadMapFile(request->file().path(), *options, stop);
   } else {
     Result<PlannerCore::Slot> slot = core_->Reserve("LoadMap");
     if (!slot.ok()) return ToGrpcStatus(slot.status());
     core_->SetProgress("fetching map", 0);
-    Result<std::string> bytes = FetchFromMapping(request->mapping(), deadline);
+    Result<std::string> bytes = FetchFromMapping(request->mapping(), stop.deadline);
     if (!bytes.ok()) {
       MAV_LOG(kWarning) << "LoadMap: " << bytes.status().ToString();
       return ToGrpcStatus(bytes.status());
     }
     info = core_->LoadMapBytes(std::move(*slot), std::move(*bytes),
-                               "mapping@" + Echo(request->mapping().address()), *options, deadline);
+                               "mapping@" + Echo(request->mapping().address()), *options, stop);
   }
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, *options, response);
@@ -205,8 +211,8 @@ grpc::Status PlanningService::UploadMap(grpc::ServerContext* context,
   } while (reader->Read(&message));
   if (Status s = SizeComplete(bytes, total, "chunk"); !s.ok()) return ToGrpcStatus(s);
   if (Status s = CheckDeadline(*context, "UploadMap"); !s.ok()) return ToGrpcStatus(s);
-  Result<planning::MapInfo> info = core_->LoadMapBytes(std::move(*slot), std::move(bytes), "upload",
-                                                       *options, CallTermination(*context));
+  Result<planning::MapInfo> info =
+      core_->LoadMapBytes(std::move(*slot), std::move(bytes), "upload", *options, StopOf(context));
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, *options, response);
   return grpc::Status::OK;
@@ -218,7 +224,7 @@ grpc::Status PlanningService::BuildRoadmap(grpc::ServerContext* context,
   Result<planning::RoadmapOptions> options = RoadmapOptionsFromProto(*request);
   if (!options.ok()) return ToGrpcStatus(options.status());
   if (Status s = CheckDeadline(*context, "BuildRoadmap"); !s.ok()) return ToGrpcStatus(s);
-  Result<planning::RoadmapInfo> info = core_->BuildRoadmap(*options, CallTermination(*context));
+  Result<planning::RoadmapInfo> info = core_->BuildRoadmap(*options, StopOf(context));
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, "built", response);
   return grpc::Status::OK;
@@ -229,8 +235,7 @@ grpc::Status PlanningService::SaveRoadmap(grpc::ServerContext* context,
                                           v1::RoadmapInfo* response) {
   if (request->path().empty()) return ToGrpcStatus(Status::InvalidArgument("path: empty"));
   if (Status s = CheckDeadline(*context, "SaveRoadmap"); !s.ok()) return ToGrpcStatus(s);
-  Result<planning::RoadmapInfo> info =
-      core_->SaveRoadmap(request->path(), CallTermination(*context));
+  Result<planning::RoadmapInfo> info = core_->SaveRoadmap(request->path(), StopOf(context));
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, request->path(), response);
   return grpc::Status::OK;
@@ -241,8 +246,7 @@ grpc::Status PlanningService::LoadRoadmap(grpc::ServerContext* context,
                                           v1::RoadmapInfo* response) {
   if (request->path().empty()) return ToGrpcStatus(Status::InvalidArgument("path: empty"));
   if (Status s = CheckDeadline(*context, "LoadRoadmap"); !s.ok()) return ToGrpcStatus(s);
-  Result<planning::RoadmapInfo> info =
-      core_->LoadRoadmap(request->path(), CallTermination(*context));
+  Result<planning::RoadmapInfo> info = core_->LoadRoadmap(request->path(), StopOf(context));
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, request->path(), response);
   return grpc::Status::OK;
@@ -269,7 +273,7 @@ grpc::Status PlanningService::PlanPath(grpc::ServerContext* context,
     core_->RecordFailed();
     return ToGrpcStatus(failure);
   }
-  Result<PlanOutcome> outcome = core_->Plan(*plan_request, CallTermination(*context));
+  Result<PlanOutcome> outcome = core_->Plan(*plan_request, StopOf(context));
   if (!outcome.ok()) return ToGrpcStatus(outcome.status());
   failure = FillPlanResponse(*outcome, request->sample_dt_s(), response);
   // Stored only when the client still waits for it: a late plan changes nothing.

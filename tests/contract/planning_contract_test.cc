@@ -499,6 +499,85 @@ TEST_F(PlanningContractTest, BuildRoadmapStoppedByItsDeadlineKeepsNothing) {
   EXPECT_EQ(Status().roadmap().seed(), 3u);
 }
 
+// A client that cancels its BuildRoadmap stops the build (nothing kept, the slot frees at once),
+// and a server shutting down does not wait for a long build beyond its grace period.
+TEST_F(PlanningContractTest, CancelledBuildAndShutdownDuringABuild) {
+  ASSERT_TRUE(LoadFile(RoomPath()).ok());
+  v1::BuildRoadmapRequest r;
+  r.set_max_milestones(200000);
+  {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(60));
+    std::thread canceller([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+      context.TryCancel();
+    });
+    v1::RoadmapInfo info;
+    const grpc::Status s = stub_->BuildRoadmap(&context, r, &info);
+    canceller.join();
+    EXPECT_EQ(s.error_code(), StatusCode::CANCELLED) << s.error_message();
+  }
+  const int64_t start = MonotonicNowNs();
+  grpc::Status next;
+  while (MsSince(start) < 5000) {
+    next = BuildSmall(1000, 3);
+    if (next.error_code() != StatusCode::RESOURCE_EXHAUSTED) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_TRUE(next.ok()) << next.error_message();
+  EXPECT_LT(MsSince(start), 1500);
+  EXPECT_EQ(Status().roadmap().seed(), 3u);
+
+  // Shutdown with a 200 ms grace while a build runs: the build's call is cancelled by the
+  // server, the handler returns, and the server stops well before the build would end.
+  Stop();
+  Start({}, {});
+  ASSERT_TRUE(LoadFile(RoomPath()).ok());
+  server_->Shutdown();
+  transport::ServerOptions options;
+  options.port = 0;
+  options.shutdown_grace_ms = 200;
+  auto server = transport::GrpcServer::Start(options, {service_.get()});
+  ASSERT_TRUE(server.ok());
+  server_ = std::move(*server);
+  stub_ = v1::Planning::NewStub(server_->InProcessChannel());
+  grpc::Status long_build;
+  std::thread builder([&] { long_build = Build(r, nullptr, 60); });
+  for (int i = 0; i < 200 && !Status().roadmap_building(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const int64_t shutdown_start = MonotonicNowNs();
+  server_->Shutdown();
+  EXPECT_LT(MsSince(shutdown_start), 2000);
+  builder.join();
+  EXPECT_FALSE(long_build.ok());
+  EXPECT_FALSE(core_->GetStatus().snapshot->roadmap != nullptr);
+}
+
+// A fresh PRM* (no roadmap, a 10 s budget) stops when its client cancels.
+TEST_F(PlanningContractTest, CancelledFreshPlanStops) {
+  ASSERT_TRUE(LoadFile(RoomPath()).ok());
+  v1::PlanPathRequest r = RoomQuery();
+  r.set_use_roadmap(false);
+  r.set_time_budget_s(10);
+  grpc::ClientContext context;
+  context.set_deadline(Deadline(60));
+  std::thread canceller([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    context.TryCancel();
+  });
+  v1::PlanPathResponse p;
+  const grpc::Status s = stub_->PlanPath(&context, r, &p);
+  canceller.join();
+  EXPECT_EQ(s.error_code(), StatusCode::CANCELLED) << s.error_message();
+  const int64_t start = MonotonicNowNs();
+  while (Status().plans_in_flight() > 0 && MsSince(start) < 5000) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_LT(MsSince(start), 1000);
+  EXPECT_EQ(Status().plans_stored(), 0u);
+}
+
 TEST_F(PlanningContractTest, PlanPathGoodInput) {
   ASSERT_TRUE(LoadFile(RoomPath()).ok());
   ASSERT_TRUE(BuildSmall().ok());

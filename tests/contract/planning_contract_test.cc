@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -99,6 +100,28 @@ void ExpectError(const grpc::Status& status, StatusCode code, const std::string&
   EXPECT_EQ(status.error_code(), code) << status.error_message();
   EXPECT_EQ(status.error_message().rfind(prefix, 0), 0u)
       << "message '" << status.error_message() << "' does not start with '" << prefix << "'";
+}
+
+// Calls `call` until it is no longer refused as busy (RESOURCE_EXHAUSTED: the worker is still
+// finishing an operation that gave up), for at most `limit_ms`; *waited_ms is how long it took.
+grpc::Status WhenNotBusy(const std::function<grpc::Status()>& call, double limit_ms,
+                         double* waited_ms) {
+  const int64_t start = MonotonicNowNs();
+  grpc::Status status = call();
+  while (status.error_code() == StatusCode::RESOURCE_EXHAUSTED && MsSince(start) < limit_ms) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    status = call();
+  }
+  *waited_ms = MsSince(start);
+  return status;
+}
+
+// Cancels `context` after `ms` on a thread of its own (join it).
+std::thread CancelAfter(grpc::ClientContext* context, int ms) {
+  return std::thread([context, ms] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+    context->TryCancel();
+  });
 }
 
 // A Mapping service whose GetOccupancy streams `bytes` (NOT_FOUND for OCTOMAP), or, when
@@ -349,12 +372,8 @@ TEST_F(PlanningContractTest, LoadMapStoppedByItsDeadlineKeepsTheOldMap) {
   EXPECT_EQ(Status().map().fingerprint(), room);
   // The worker stops at the library's next poll (DynamicEDT3D's transform is one call, ~3 s
   // here); the late map is dropped, and the next long operation is accepted after it.
-  grpc::Status next;
-  while (MsSince(start) < 20000) {
-    next = LoadFile(RoomPath());
-    if (next.error_code() != StatusCode::RESOURCE_EXHAUSTED) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
+  double waited_ms = 0;
+  const grpc::Status next = WhenNotBusy([&] { return LoadFile(RoomPath()); }, 20000, &waited_ms);
   EXPECT_TRUE(next.ok()) << next.error_message();
   EXPECT_EQ(Status().map().fingerprint(), room);
   EXPECT_EQ(Status().map().distance_method(), v1::DISTANCE_METHOD_EXACT);
@@ -490,15 +509,10 @@ TEST_F(PlanningContractTest, BuildRoadmapStoppedByItsDeadlineKeepsNothing) {
   EXPECT_EQ(s.roadmap().seed(), before.seed());
   EXPECT_EQ(s.roadmap().milestones(), before.milestones());
   // The worker stops at its next poll: the slot frees within a second.
-  const int64_t start = MonotonicNowNs();
-  grpc::Status next;
-  while (MsSince(start) < 5000) {
-    next = BuildSmall(1000, 3);
-    if (next.error_code() != StatusCode::RESOURCE_EXHAUSTED) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
+  double waited_ms = 0;
+  const grpc::Status next = WhenNotBusy([&] { return BuildSmall(1000, 3); }, 5000, &waited_ms);
   EXPECT_TRUE(next.ok()) << next.error_message();
-  EXPECT_LT(MsSince(start), 3000);  // the next poll, not the end of a tens-of-seconds build
+  EXPECT_LT(waited_ms, 3000);  // the next poll, not the end of a tens-of-seconds build
   EXPECT_EQ(Status().roadmap().seed(), 3u);
 }
 
@@ -511,24 +525,16 @@ TEST_F(PlanningContractTest, CancelledBuildAndShutdownDuringABuild) {
   {
     grpc::ClientContext context;
     context.set_deadline(Deadline(60));
-    std::thread canceller([&] {
-      std::this_thread::sleep_for(std::chrono::milliseconds(300));
-      context.TryCancel();
-    });
+    std::thread canceller = CancelAfter(&context, 300);
     v1::RoadmapInfo info;
     const grpc::Status s = stub_->BuildRoadmap(&context, r, &info);
     canceller.join();
     EXPECT_EQ(s.error_code(), StatusCode::CANCELLED) << s.error_message();
   }
-  const int64_t start = MonotonicNowNs();
-  grpc::Status next;
-  while (MsSince(start) < 5000) {
-    next = BuildSmall(1000, 3);
-    if (next.error_code() != StatusCode::RESOURCE_EXHAUSTED) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
+  double waited_ms = 0;
+  const grpc::Status next = WhenNotBusy([&] { return BuildSmall(1000, 3); }, 5000, &waited_ms);
   EXPECT_TRUE(next.ok()) << next.error_message();
-  EXPECT_LT(MsSince(start), 3000);
+  EXPECT_LT(waited_ms, 3000);
   EXPECT_EQ(Status().roadmap().seed(), 3u);
 
   // Shutdown with a 200 ms grace while a build runs: the build's call is cancelled by the
@@ -565,10 +571,7 @@ TEST_F(PlanningContractTest, CancelledFreshPlanStops) {
   r.set_time_budget_s(10);
   grpc::ClientContext context;
   context.set_deadline(Deadline(60));
-  std::thread canceller([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    context.TryCancel();
-  });
+  std::thread canceller = CancelAfter(&context, 200);
   v1::PlanPathResponse p;
   const grpc::Status s = stub_->PlanPath(&context, r, &p);
   canceller.join();

@@ -255,8 +255,9 @@ int RunPlanning(const std::vector<std::string>& args) {
 
   const mav::RuntimeStats s = mav::SummarizeRuntimes(tally.latencies_ms);
   std::printf("\ncalls:    %llu in %.2f s = %.1f calls/s (%zu answered = %.1f /s)\n",
-              static_cast<unsigned long long>(tally.calls), elapsed_s, tally.calls / elapsed_s,
-              tally.latencies_ms.size(), tally.latencies_ms.size() / elapsed_s);
+              static_cast<unsigned long long>(tally.calls), elapsed_s,
+              static_cast<double>(tally.calls) / elapsed_s, tally.latencies_ms.size(),
+              static_cast<double>(tally.latencies_ms.size()) / elapsed_s);
   std::printf(
       "latency:  p50 %.2f ms, p95 %.2f ms, p99 %.2f ms, max %.2f ms, mean %.2f ms "
       "(nearest rank, answered calls)\n",

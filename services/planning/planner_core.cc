@@ -216,7 +216,7 @@ Result<planning::MapInfo> PlannerCore::LoadMapFile(const std::string& path,
   return map->info();
 }
 
-Result<planning::MapInfo> PlannerCore::LoadMapBytes(Slot slot, std::string bytes,
+Result<planning::MapInfo> PlannerCore::LoadMapBytes(const Slot& slot, std::string bytes,
                                                     const std::string& source,
                                                     planning::MapOptions options,
                                                     const CallStop& stop) {

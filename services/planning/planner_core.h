@@ -144,8 +144,9 @@ class PlannerCore {
   Result<planning::MapInfo> LoadMapFile(const std::string& path, planning::MapOptions options,
                                         const CallStop& stop);
   // The same from bytes (an upload, the mapping service's map) under a reserved slot.
-  Result<planning::MapInfo> LoadMapBytes(Slot slot, std::string bytes, const std::string& source,
-                                         planning::MapOptions options, const CallStop& stop);
+  Result<planning::MapInfo> LoadMapBytes(const Slot& slot, std::string bytes,
+                                         const std::string& source, planning::MapOptions options,
+                                         const CallStop& stop);
 
   // Builds a roadmap on the current map and installs it. FAILED_PRECONDITION without a map;
   // RESOURCE_EXHAUSTED above max_milestones or when busy; the library's INVALID_ARGUMENT;

@@ -126,7 +126,9 @@ Result<std::string> PlanningService::FetchFromMapping(const v1::MapFromMappingSe
     }
     broken = AppendChunk(message.chunk(), "chunk", &total, &bytes);
     if (!broken.ok()) broken = Status::DataLoss(what + ": " + broken.message());
-    if (total > 0) core_->SetProgress("fetching map", static_cast<double>(bytes.size()) / total);
+    if (total > 0)
+      core_->SetProgress("fetching map",
+                         static_cast<double>(bytes.size()) / static_cast<double>(total));
   }
   const grpc::Status status = reader->Finish();
   if (!broken.ok()) return broken;
@@ -164,7 +166,7 @@ grpc::Status PlanningService::LoadMap(grpc::ServerContext* context,
       MAV_LOG(kWarning) << "LoadMap: " << bytes.status().ToString();
       return ToGrpcStatus(bytes.status());
     }
-    info = core_->LoadMapBytes(std::move(*slot), std::move(*bytes),
+    info = core_->LoadMapBytes(*slot, std::move(*bytes),
                                "mapping@" + Echo(request->mapping().address()), *options, stop);
   }
   if (!info.ok()) return ToGrpcStatus(info.status());
@@ -205,14 +207,15 @@ grpc::Status PlanningService::UploadMap(grpc::ServerContext* context,
     if (Status s = AppendChunk(message.chunk(), field, &total, &bytes); !s.ok()) {
       return ToGrpcStatus(s);
     }
-    if (total > 0) core_->SetProgress("upload", static_cast<double>(bytes.size()) / total);
+    if (total > 0)
+      core_->SetProgress("upload", static_cast<double>(bytes.size()) / static_cast<double>(total));
     ++index;
     if (message.chunk().last()) break;
   } while (reader->Read(&message));
   if (Status s = SizeComplete(bytes, total, "chunk"); !s.ok()) return ToGrpcStatus(s);
   if (Status s = CheckDeadline(*context, "UploadMap"); !s.ok()) return ToGrpcStatus(s);
   Result<planning::MapInfo> info =
-      core_->LoadMapBytes(std::move(*slot), std::move(bytes), "upload", *options, StopOf(context));
+      core_->LoadMapBytes(*slot, std::move(bytes), "upload", *options, StopOf(context));
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, *options, response);
   return grpc::Status::OK;

@@ -25,9 +25,9 @@ Result<std::vector<PlanningQuery>> ParsePlanningQueries(std::string_view text,
     std::istringstream words(line);
     std::vector<double> values;
     for (std::string word; words >> word;) {
-      MAV_ASSIGN_OR_RETURN(
-          const double v,
-          ParseDouble(word, where + ": value " + std::to_string(values.size() + 1)));
+      std::string what = where;
+      what += ": value " + std::to_string(values.size() + 1);
+      MAV_ASSIGN_OR_RETURN(const double v, ParseDouble(word, what));
       if (!std::isfinite(v)) {
         return Status::InvalidArgument(where + ": '" + word + "' is not finite");
       }

@@ -7,11 +7,14 @@
 #      Tables 1 and 2 beside ours;
 #   5. mav-eval mapping builds both maps (sparse meshing, OctoMap + dense stereo) from the same
 #      keyframes and prints the paper's Tables 3 and 4 beside ours;
-#   6. the closed loop through the services: mav-simulator flies the contest's t3_1 lock-stepped
+#   6. mav-planning loads the contest's power_plant.bt (../shared/data) with a PRM* roadmap
+#      (built once into OUT/power_plant.mavprm, ~15 s, then loaded in under a second) and
+#      mavctl plans the t4_3 legs through it and prints the table with the paper's figures;
+#   7. the closed loop through the services: mav-simulator flies the contest's t3_1 lock-stepped
 #      on the rotor speeds mav-control (the paper's controller) sends over DDS, and prints the
-#      contest's score. (The t4_3 leg joins with the planning service: marked below.)
+#      contest's score.
 # Environment: FRAMES (default 300), PRESET (room-easy), OUT (out/), MAV_SIM_PORT (50051),
-# MAV_CONTROL_PORT (50055), FLIGHT_SEED (1).
+# MAV_PLANNING_PORT (50054), MAV_CONTROL_PORT (50055), FLIGHT_SEED (1).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 "$repo/deploy/setup.sh"
@@ -21,6 +24,7 @@ frames="${FRAMES:-300}"
 preset="${PRESET:-room-easy}"
 out="${OUT:-$repo/out}"
 port="${MAV_SIM_PORT:-50051}"
+plan_port="${MAV_PLANNING_PORT:-50054}"
 ctl_port="${MAV_CONTROL_PORT:-50055}"
 flight_seed="${FLIGHT_SEED:-1}"
 data="$out/$preset-$frames"
@@ -30,7 +34,7 @@ export MAV_DDS_DOMAIN="${MAV_DDS_DOMAIN:-$(( ($$ % 200) + 1 ))}"
 
 step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
-step "1/6 rendering $frames frames of $preset into $data"
+step "1/7 rendering $frames frames of $preset into $data"
 if [[ -f "$data/ground_truth/scenario.yaml" ]]; then
   echo "(already there; delete $data to render again)"
 else
@@ -38,7 +42,7 @@ else
 fi
 "$bin/mav-sim" info "$data"
 
-step "2/6 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
+step "2/7 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
 "$bin/mav-simulator" --port "$port" > "$out/mav-simulator.log" 2>&1 &
 sim_pid=$!
 pids=("$sim_pid")
@@ -48,9 +52,10 @@ cleanup() {
   pids=()
 }
 trap cleanup EXIT
-# wait_serving PORT PID LOG: until the service at PORT answers its health check.
+# wait_serving PORT PID LOG [TRIES]: until the service at PORT answers its health check (every
+# 0.2 s, 50 tries unless told).
 wait_serving() {
-  for _ in $(seq 50); do
+  for _ in $(seq "${4:-50}"); do
     "$bin/mavctl" health --port "$1" > /dev/null 2>&1 && return 0
     kill -0 "$2" 2>/dev/null || { cat "$3"; exit 1; }
     sleep 0.2
@@ -60,7 +65,7 @@ wait_serving "$port" "$sim_pid" "$out/mav-simulator.log"
 "$bin/mavctl" health --port "$port"
 "$bin/mavctl" sim load --euroc "$data" --port "$port"
 
-step "3/6 replaying in real time over DDS; mavctl listen reports what arrived"
+step "3/7 replaying in real time over DDS; mavctl listen reports what arrived"
 "$bin/mavctl" listen --topic all --frames "$frames" --timeout 60 &
 listen_pid=$!
 sleep 1  # let DDS discovery match the listener before the first frame
@@ -71,13 +76,29 @@ wait "$listen_pid" || listen_status=$?
 [[ $listen_status -eq 0 ]] || { echo "mavctl listen failed ($listen_status)" >&2; exit "$listen_status"; }
 
 cleanup  # the simulator's work is done; free the cores for the evaluation
-step "4/6 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
+step "4/7 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
 "$bin/mav-eval" localization --data "$data" --json "$out/localization-$preset-$frames.json"
 
-step "5/6 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
+step "5/7 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
 "$bin/mav-eval" mapping --data "$data" --json "$out/mapping-$preset-$frames.json"
 
-step "6/6 closed loop: t3_1 flown by mav-control (paper controller) on mav-simulator, lock-stepped over DDS"
+step "6/7 planning: the t4_3 legs on power_plant.bt through mav-planning"
+plant="$repo/../shared/data/power_plant.bt"
+if [[ -f "$plant" ]]; then
+  [[ -f "$out/power_plant.mavprm" ]] ||
+    echo "(building the roadmap once into $out/power_plant.mavprm, ~15 s)"
+  "$bin/mav-planning" --port "$plan_port" --map "$plant" --roadmap "$out/power_plant.mavprm" \
+    > "$out/mav-planning.log" 2>&1 &
+  pids+=("$!")
+  wait_serving "$plan_port" "$!" "$out/mav-planning.log" 600
+  "$bin/mavctl" plan status --port "$plan_port"
+  "$bin/mavctl" plan legs --port "$plan_port" --points "2,-27,15;20,-15,15;25,0,5;0,0,1"
+  cleanup
+else
+  echo "(no $plant here: skipped)"
+fi
+
+step "7/7 closed loop: t3_1 flown by mav-control (paper controller) on mav-simulator, lock-stepped over DDS"
 "$bin/mav-simulator" --port "$port" > "$out/mav-simulator-flight.log" 2>&1 &
 pids+=("$!")
 wait_serving "$port" "$!" "$out/mav-simulator-flight.log"
@@ -97,11 +118,5 @@ sim run --pause-on-goal --wait > /dev/null
 ctl hover --position 0,0,1 --max-speed 1.5 --max-accel 2 > /dev/null
 sim run --wait
 ctl status
-# ---- t4_3 (one planned leg on power_plant.bt): comes with the planning service -----------------
-# When mav-planning is on this branch: start it, LoadMap ../shared/data/power_plant.bt,
-# BuildRoadmap, then `sim load --task t4_3 --lockstep`, take off as above, PlanPath from the
-# take-off point to the first goal and `ctl trajectory --plan ID --planning 127.0.0.1:50054`,
-# `sim run --wait`, and print the leg's figures (flight time, mean/peak speed, clearance).
-# -------------------------------------------------------------------------------------------------
 cleanup
 

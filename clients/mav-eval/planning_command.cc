@@ -19,6 +19,7 @@
 #include "mav/common/flags.h"
 #include "mav/common/parse.h"
 #include "mav/common/stats.h"
+#include "mav/dataset/planning_queries.h"
 #include "mav/planning/planner.h"
 #include "mav/planning/planning_map.h"
 #include "mav/planning/reference_path.h"
@@ -67,40 +68,12 @@ std::string Fmt(const char* format, double v) {
   return buf;
 }
 
-// One query a line: "sx sy sz gx gy gz" with more triples as waypoints between; '#' comments.
+// The queries of a --queries file (format: mav/dataset/planning_queries.h).
 Result<std::vector<Query>> ReadQueries(const std::string& path) {
-  if (!PathExists(path)) return Status::NotFound(path + ": no such file");
-  MAV_ASSIGN_OR_RETURN(const std::string text, ReadFileToString(path));
+  MAV_ASSIGN_OR_RETURN(const std::vector<dataset::PlanningQuery> read,
+                       dataset::ReadPlanningQueries(path));
   std::vector<Query> out;
-  std::istringstream in(text);
-  std::string line;
-  for (int number = 1; std::getline(in, line); ++number) {
-    const std::string where = path + ":" + std::to_string(number);
-    line = line.substr(0, line.find('#'));
-    std::istringstream words(line);
-    std::vector<double> values;
-    for (std::string word; words >> word;) {
-      MAV_ASSIGN_OR_RETURN(
-          const double v,
-          ParseDouble(word, where + ": value " + std::to_string(values.size() + 1)));
-      if (!std::isfinite(v))
-        return Status::InvalidArgument(where + ": '" + word + "' is not finite");
-      values.push_back(v);
-    }
-    if (values.empty()) continue;
-    if (values.size() < 6 || values.size() % 3 != 0) {
-      return Status::InvalidArgument(
-          where + ": expected start and goal (and waypoints) as x y z triples, got " +
-          std::to_string(values.size()) + " numbers");
-    }
-    Query q;
-    q.kind = where;
-    for (size_t i = 0; i < values.size(); i += 3) {
-      q.points.emplace_back(values[i], values[i + 1], values[i + 2]);
-    }
-    out.push_back(q);
-  }
-  if (out.empty()) return Status::InvalidArgument(path + ": no queries");
+  for (const dataset::PlanningQuery& q : read) out.push_back({q.where, q.points, 0});
   return out;
 }
 

@@ -8,6 +8,7 @@
 //   mavctl listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]
 //   mavctl sim flight load|run|pause|status   (the simulator's flight mode)
 //   mavctl ctl configure|arm|disarm|hover|trajectory|gains|state|status   (mav-control)
+//   mavctl plan load|roadmap|path|legs|get|sample|status   (mav-planning)
 //
 // Every RPC has a deadline (--timeout, default 10 s). Exit status: 0 success, 1 the call failed
 // (message on stderr names the address and the status), 2 usage error.
@@ -31,6 +32,7 @@
 #include "clients/mavctl/listen.h"
 #include "clients/mavctl/localization_commands.h"
 #include "clients/mavctl/mapping_commands.h"
+#include "clients/mavctl/plan_commands.h"
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
 #include "mav/common/time.h"
@@ -62,6 +64,7 @@ constexpr char kUsage[] =
     "  map start|reset|insert|build|occupancy|query|mesh|status  (mavctl map --help; port 50053)\n"
     "  sim flight load|run|pause|status  (mavctl sim flight --help; the flight mode)\n"
     "  ctl configure|arm|disarm|hover|trajectory|gains|state|status  (mavctl ctl --help; 50055)\n"
+    "  plan load|roadmap|path|legs|get|sample|status  (mavctl plan --help; port 50054)\n"
     "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
     "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
 
@@ -372,6 +375,7 @@ int main(int argc, char** argv) {
   if (command == "loc") return mav::mavctl::LocalizationCommand(args);
   if (command == "map") return mav::mavctl::MappingCommand(args);
   if (command == "ctl") return mav::mavctl::ControlCommand(args);
+  if (command == "plan") return mav::mavctl::PlanCommand(args);
   std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }

@@ -117,6 +117,8 @@ const std::map<std::string, std::map<std::string, Shape>>& DocumentedRpcs() {
        {{"LoadMap", kUnary},
         {"UploadMap", kClientStream},
         {"BuildRoadmap", kUnary},
+        {"SaveRoadmap", kUnary},
+        {"LoadRoadmap", kUnary},
         {"PlanPath", kUnary},
         {"GetPlan", kUnary},
         {"GetRoadmapStatus", kUnary},

@@ -7,7 +7,7 @@
 #      Tables 1 and 2 beside ours;
 #   5. mav-eval mapping builds both maps (sparse meshing, OctoMap + dense stereo) from the same
 #      keyframes and prints the paper's Tables 3 and 4 beside ours;
-#   6. mav-planning loads the contest's power_plant.bt (../shared/data) with a PRM* roadmap
+#   6. mav-planning loads the contest's power_plant.bt (maps/) with a PRM* roadmap
 #      (built once into OUT/power_plant.mavprm, ~15 s, then loaded in under a second) and
 #      mavctl plans the t4_3 legs through it and prints the table with the paper's figures;
 #   7. the closed loop through the services: mav-simulator flies the contest's t3_1 lock-stepped
@@ -83,7 +83,7 @@ step "5/7 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collisio
 "$bin/mav-eval" mapping --data "$data" --json "$out/mapping-$preset-$frames.json"
 
 step "6/7 planning: the t4_3 legs on power_plant.bt through mav-planning"
-plant="$repo/../shared/data/power_plant.bt"
+plant="$repo/maps/power_plant.bt"
 if [[ -f "$plant" ]]; then
   [[ -f "$out/power_plant.mavprm" ]] ||
     echo "(building the roadmap once into $out/power_plant.mavprm, ~15 s)"

@@ -1,4 +1,4 @@
-// Planning hot paths on the contest's power plant map (../shared/data/power_plant.bt, 0.25 m,
+// Planning hot paths on the contest's power plant map (maps/power_plant.bt, 0.25 m,
 // 50 x 50 x 50 m), robot radius 0.5 m:
 //   BM_DistanceMap/<method>: parsing the OctoMap, filling the grid and the distance transform,
 //     ours (exact point-to-cube, 2 threads) and DynamicEDT3D (the paper's, 1 thread);
@@ -23,7 +23,7 @@
 namespace mav::planning {
 namespace {
 
-const char* kMapPath = MAV_SOURCE_DIR "/../shared/data/power_plant.bt";
+const char* kMapPath = MAV_SOURCE_DIR "/maps/power_plant.bt";
 
 struct Fixture {
   std::string bytes;

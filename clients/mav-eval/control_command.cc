@@ -180,7 +180,7 @@ void PrintScore(const Run& run) {
 
 int RunControl(const std::vector<std::string>& args) {
   std::string task_name = "all", controller_name = "all", task_file, out_dir, json_path;
-  std::string map_path = "../shared/data/power_plant.bt";
+  std::string map_path = sim::DefaultPlantMapPath();
   uint64_t seed = 1;
   FlagParser flags(
       "mav-eval control --task t3_1|t3_2|t3_3|t4_1|t4_2|t4_3|all [--controller paper|lee|all] "

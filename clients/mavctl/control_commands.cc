@@ -18,6 +18,7 @@
 
 #include "mav/common/text.h"
 #include "mav/common/time.h"
+#include "mav/sim/flight_task.h"
 #include "mav/transport/flags.h"
 #include "services/control/convert.h"
 
@@ -172,7 +173,7 @@ int Configure(const std::vector<std::string>& args) {
                    "Configures mav-control: for a flight task (what the contest told the teams:\n"
                    "vehicle, sensor rates, noise, mountings) or with the library defaults.");
   AddConnectionFlags(&flags, &connection);
-  std::string task, controller = "paper", pose_frame, plant_map = "../shared/data/power_plant.bt";
+  std::string task, controller = "paper", pose_frame, plant_map = sim::DefaultPlantMapPath();
   bool lockstep = false, no_dds = false;
   flags.AddString("task", &task, "t3_1 ... t4_3, or a task file .yaml (read here)");
   flags.AddString("controller", &controller, "paper|lee");

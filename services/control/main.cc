@@ -4,6 +4,7 @@
 
 #include "mav/common/log.h"
 #include "mav/common/text.h"
+#include "mav/sim/flight_task.h"
 #include "mav/transport/service_main.h"
 #include "services/control/control_core.h"
 #include "services/control/control_service.h"
@@ -20,7 +21,7 @@ int main(int argc, char** argv) {
   std::string task;
   std::string controller = "paper";
   bool lockstep = false;
-  std::string plant_map = "../shared/data/power_plant.bt";
+  std::string plant_map = mav::sim::DefaultPlantMapPath();
   mav::control_service::ControlServiceOptions options;
   runner.flags().AddString("task", &task,
                            "optional: configure at start-up for this flight task (t3_1 ... t4_3 "

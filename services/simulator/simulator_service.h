@@ -14,6 +14,7 @@
 #include "mav/v1/simulator.grpc.pb.h"
 
 #include "mav/sim/collision_world.h"
+#include "mav/sim/flight_task.h"
 #include "services/simulator/convert.h"
 #include "services/simulator/flight.h"
 #include "services/simulator/player.h"
@@ -27,8 +28,8 @@ struct SimulatorServiceOptions {
   // the limit is refused with RESOURCE_EXHAUSTED. The default (1 GiB) allows a room (~8x8x3 m) at
   // 2.5 cm as .bt or 1 cm as .mavocc, and the plant (50x50x40 m) at 20 cm as .bt.
   int64_t max_occupancy_memory_mb = 1024;
-  // The OctoMap of the built-in t4_3 (the power plant), relative to the working directory.
-  std::string plant_map_path = "../shared/data/power_plant.bt";
+  // The OctoMap of the built-in t4_3 (the power plant).
+  std::string plant_map_path = sim::DefaultPlantMapPath();
 
   static constexpr double kOctomapBytesPerVoxel = 64.0;
   bool IsValid(std::string* why) const;

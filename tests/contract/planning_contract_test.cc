@@ -3,7 +3,7 @@
 // changes nothing), the limits (plans in flight, one long operation, map memory, milestones,
 // upload size, samples), many plans at once while the roadmap is rebuilt, and a map loaded from
 // a running mapping service (a fake mav.v1.Mapping on a loopback port serving a .bt).
-// Maps: a hand-made 10 x 10 x 5 m room at 0.25 m (fast), and ../shared/data/power_plant.bt with
+// Maps: a hand-made 10 x 10 x 5 m room at 0.25 m (fast), and maps/power_plant.bt with
 // a small roadmap where the real map matters.
 
 #include <gtest/gtest.h>
@@ -38,7 +38,7 @@ namespace {
 using grpc::StatusCode;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-const std::string kPowerPlant = MAV_SOURCE_DIR "/../shared/data/power_plant.bt";
+const std::string kPowerPlant = MAV_SOURCE_DIR "/maps/power_plant.bt";
 
 std::chrono::system_clock::time_point Deadline(double seconds) {
   return std::chrono::system_clock::now() +

@@ -1,6 +1,6 @@
 // mav-load against mav-planning (both from build/bin, on loopback, on the machine's cores) for
 // 8 s: 4 concurrent clients planning the queries of tests/data/planning/power_plant_queries.txt
-// (the t4_3 legs and 30 random 20-40 m queries) on ../shared/data/power_plant.bt with a 20 000-
+// (the t4_3 legs and 30 random 20-40 m queries) on maps/power_plant.bt with a 20 000-
 // milestone roadmap (built once into build/Testing, then loaded). Asserts zero errors, every
 // reply SUCCESS and p99 <= 250 ms (the target, >= 200 plans/s at p99 <= 100 ms pinned to two
 // cores with the default roadmap, is measured as docs/benchmarks.md says; this bound leaves room
@@ -21,7 +21,7 @@ TEST(PlanningLoadTest, NoErrorsAndABoundedP99) {
   test_support::Stack stack(/*domain_key=*/62);
   const std::string target = stack.Start(
       "mav-planning", "mav.v1.Planning",
-      {"--map", MAV_SOURCE_DIR "/../shared/data/power_plant.bt", "--roadmap",
+      {"--map", MAV_SOURCE_DIR "/maps/power_plant.bt", "--roadmap",
        MAV_BINARY_DIR "/Testing/planning_load_20k.mavprm", "--roadmap-milestones", "20000"});
   ASSERT_FALSE(target.empty()) << *ReadFileToString(stack.Log("mav-planning"));
   const std::string log_path = MAV_BINARY_DIR "/Testing/planning_load_test.log";

@@ -1,5 +1,7 @@
 #include "mav/sim/flight_task.h"
 
+#include <cstdlib>
+
 namespace mav::sim {
 
 using dataset::FlightGoal;
@@ -39,6 +41,12 @@ FlightTask Waypoints(const std::string& name, const std::vector<Eigen::Vector3d>
 }
 
 }  // namespace
+
+std::string DefaultPlantMapPath() {
+  const char* env = std::getenv("MAV_PLANT_MAP");
+  if (env != nullptr && env[0] != '\0') return env;
+  return MAV_PLANT_MAP_DEFAULT;
+}
 
 Result<FlightTask> BuiltinFlightTask(const std::string& name, const std::string& plant_map_path) {
   if (name == "t3_1") return Hover(name);

@@ -93,8 +93,8 @@ TEST(FlightContestTest, PlannedLegsNeedAPlanner) {
 // on a given trajectory, the scoring of the leg) with a hand-made collision-free leg: straight
 // up above the spawn point, which is open sky in power_plant.bt.
 TEST(FlightContestTest, PlantLegOnAHandMadeTrajectory) {
-  const std::string map = std::string(MAV_SOURCE_DIR) + "/../shared/data/power_plant.bt";
-  if (!PathExists(map)) GTEST_SKIP() << "no " << map;
+  const std::string map = std::string(MAV_SOURCE_DIR) + "/maps/power_plant.bt";
+  ASSERT_TRUE(PathExists(map)) << map << " is missing from the source tree";
   dataset::FlightTask t = *sim::BuiltinFlightTask("t4_3", map);
   t.goals = {{10, Eigen::Vector3d(0, 0, 2), 0}, {20, Eigen::Vector3d(0, 0, 6), 0}};
   t.duration_s = 35;

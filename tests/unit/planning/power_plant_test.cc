@@ -1,6 +1,6 @@
 // Statistics over seeds on the contest's real map (as OMPL's planner tests do): success rate and
 // zero clearance violations, with the near-optimal reference deciding which queries have a
-// solution. Reads ../shared/data/power_plant.bt (skipped with a message when absent).
+// solution. Reads maps/power_plant.bt (maps/README.md).
 
 #include <gtest/gtest.h>
 
@@ -15,7 +15,7 @@
 namespace mav::planning {
 namespace {
 
-const char* kMapPath = MAV_SOURCE_DIR "/../shared/data/power_plant.bt";
+const char* kMapPath = MAV_SOURCE_DIR "/maps/power_plant.bt";
 
 // The exact clearance every 1 cm of the trajectory.
 double MinClearance(const ClearanceMap& map, const PlanResult& r) {
@@ -45,7 +45,7 @@ class PowerPlantTest : public ::testing::Test {
     delete roadmap_;
   }
   void SetUp() override {
-    if (!PathExists(kMapPath)) GTEST_SKIP() << kMapPath << " is absent";
+    ASSERT_TRUE(PathExists(kMapPath)) << kMapPath << " is missing from the source tree";
     ASSERT_NE(map_, nullptr);
     ASSERT_NE(roadmap_, nullptr);
   }

@@ -23,7 +23,7 @@
 //     - {rate_hz, delay_s, stamp_offset_s, position_sigma_m, orientation_sigma_rad,
 //        mount_xyz_m, mount_rpy_rad, active_from_s, active_until_s}   # starting from sensor 0)
 //   pose_sensor_count: 1         # drop sensors beyond this many
-//   map: ../shared/data/power_plant.bt   (relative to the task file's folder)
+//   map: FILE.bt                 (an OctoMap; a relative path is from the task file's folder)
 //   vehicle_radius_m: 0.35
 //   scoring: {window_s, hover_delay_s, settle_radius_m, settle_hold_s, settle_limit_s,
 //             position_limit_m, angular_rate_limit_radps}

@@ -28,8 +28,16 @@ namespace mav::sim {
 
 // t3_1, t3_2, t3_3, t4_1, t4_2, t4_3.
 const std::vector<std::string>& FlightTaskNames();
+
+// Where the contest's power-plant map (the OctoMap t4_3 flies in) is: $MAV_PLANT_MAP when set
+// (the container images set it), otherwise the copy in the source tree, maps/power_plant.bt.
+std::string DefaultPlantMapPath();
+
 // NotFound naming the known tasks for an unknown name. t4_3's map_path is `plant_map_path`.
-Result<dataset::FlightTask> BuiltinFlightTask(
-    const std::string& name, const std::string& plant_map_path = "../shared/data/power_plant.bt");
+Result<dataset::FlightTask> BuiltinFlightTask(const std::string& name,
+                                              const std::string& plant_map_path);
+inline Result<dataset::FlightTask> BuiltinFlightTask(const std::string& name) {
+  return BuiltinFlightTask(name, DefaultPlantMapPath());
+}
 
 }  // namespace mav::sim

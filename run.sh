@@ -11,8 +11,9 @@
 #      (built once into OUT/power_plant.mavprm, ~15 s, then loaded in under a second) and
 #      mavctl plans the t4_3 legs through it and prints the table with the paper's figures;
 #   7. the closed loop through the services: mav-simulator flies the contest's t3_1 lock-stepped
-#      on the rotor speeds mav-control (the paper's controller) sends over DDS, and prints the
-#      contest's score.
+#      on the rotor speeds mav-control (the paper's controller) sends over DDS and prints the
+#      contest's score; then t4_3's first leg, planned by mav-planning and flown through
+#      mav-control, with the vehicle's end point and collisions.
 # Environment: FRAMES (default 300), PRESET (room-easy), OUT (out/), MAV_SIM_PORT (50051),
 # MAV_PLANNING_PORT (50054), MAV_CONTROL_PORT (50055), FLIGHT_SEED (1).
 set -euo pipefail
@@ -93,12 +94,11 @@ if [[ -f "$plant" ]]; then
   wait_serving "$plan_port" "$!" "$out/mav-planning.log" 600
   "$bin/mavctl" plan status --port "$plan_port"
   "$bin/mavctl" plan legs --port "$plan_port" --points "2,-27,15;20,-15,15;25,0,5;0,0,1"
-  cleanup
 else
   echo "(no $plant here: skipped)"
 fi
 
-step "7/7 closed loop: t3_1 flown by mav-control (paper controller) on mav-simulator, lock-stepped over DDS"
+step "7/7 closed loop: t3_1 and a t4_3 leg flown by mav-control (paper controller) on mav-simulator, lock-stepped over DDS"
 "$bin/mav-simulator" --port "$port" > "$out/mav-simulator-flight.log" 2>&1 &
 pids+=("$!")
 wait_serving "$port" "$!" "$out/mav-simulator-flight.log"
@@ -118,5 +118,19 @@ sim run --pause-on-goal --wait > /dev/null
 ctl hover --position 0,0,1 --max-speed 1.5 --max-accel 2 > /dev/null
 sim run --wait
 ctl status
+if [[ -f "$plant" ]]; then
+  printf '\n-- t4_3, first leg: planned by mav-planning, fetched by mav-control (Planning.GetPlan), flown\n'
+  ctl disarm > /dev/null  # t3_1 is over; Configure wants the motors off
+  sim load --task t4_3 --lockstep --seed "$flight_seed" > /dev/null
+  ctl configure --task t4_3 --controller paper --lockstep > /dev/null
+  sim run --until 5 --wait > /dev/null
+  ctl arm > /dev/null
+  ctl hover --position 0,0,2 --max-speed 1.5 --max-accel 2 > /dev/null  # the take-off point
+  sim run --pause-on-goal --wait > /dev/null                              # goal 0 at 10 s
+  "$bin/mavctl" plan path --port "$plan_port" --start 0,0,2 --goal 2,-27,15 | tee "$out/t4_3-leg1.txt"
+  plan_id="$(awk '/^plan_id:/ {print $2}' "$out/t4_3-leg1.txt")"
+  ctl trajectory --plan "$plan_id" --planning "127.0.0.1:$plan_port" > /dev/null
+  sim run --until 25 --wait     # the leg (~6 s) and the hover at the goal (2, -27, 15)
+fi
 cleanup
 

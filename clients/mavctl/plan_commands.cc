@@ -15,6 +15,7 @@
 #include "clients/mavctl/connection.h"
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
+#include "mav/common/text.h"
 #include "mav/transport/flags.h"
 
 namespace mav::mavctl {
@@ -67,7 +68,7 @@ std::string Fixed(double v, int digits) {
 Result<std::vector<double>> ParseVector(std::string_view text, size_t n, const std::string& flag) {
   const std::vector<std::string_view> fields = SplitFields(text, ',');
   if (fields.size() != n) {
-    return Status::InvalidArgument(flag + ": '" + std::string(text) + "' is not " +
+    return Status::InvalidArgument(flag + ": " + QuoteForError(text) + " is not " +
                                    std::to_string(n) + " comma-separated numbers");
   }
   std::vector<double> v;
@@ -237,7 +238,7 @@ int Load(const std::vector<std::string>& args) {
   if (distance_method == "edt3d") {
     options.set_distance_method(v1::DISTANCE_METHOD_DYNAMIC_EDT3D);
   } else if (distance_method != "exact") {
-    return Usage("--distance-method: '" + distance_method + "' is not exact or edt3d");
+    return Usage("--distance-method: " + QuoteForError(distance_method) + " is not exact or edt3d");
   }
   auto stub = Connect(connection);
   v1::MapInfo info;
@@ -279,7 +280,7 @@ int Load(const std::vector<std::string>& args) {
       } else if (method == "octomap") {
         request.mutable_mapping()->set_method(v1::MAPPING_METHOD_REF_OCTOMAP);
       } else if (!method.empty()) {
-        return Usage("--method: '" + method + "' is not sparse-mesh or octomap");
+        return Usage("--method: " + QuoteForError(method) + " is not sparse-mesh or octomap");
       }
     }
     if (int rc = CallUnary(connection, "LoadMap", [&](grpc::ClientContext* c) {
@@ -375,7 +376,8 @@ struct PlanFlags {
     } else if (yaw == "constant") {
       r->set_yaw_policy(v1::YAW_POLICY_CONSTANT);
     } else {
-      return Status::InvalidArgument("--yaw: '" + yaw + "' is not constant or along-path");
+      return Status::InvalidArgument("--yaw: " + QuoteForError(yaw) +
+                                     " is not constant or along-path");
     }
     if (no_roadmap) r->set_use_roadmap(false);
     r->set_time_budget_s(budget);

@@ -9,6 +9,7 @@
 
 #include "mav/common/file.h"
 #include "mav/common/log.h"
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 
 namespace mav::planning_service {
@@ -298,7 +299,7 @@ Result<planning::RoadmapInfo> PlannerCore::LoadRoadmap(const std::string& path,
 Result<planning::RoadmapInfo> PlannerCore::SaveRoadmap(const std::string& path,
                                                        const CallStop& stop) {
   if (!EndsWith(path, ".mavprm")) {
-    return Status::InvalidArgument("path: '" + path.substr(0, 256) + "' must end in \".mavprm\"");
+    return Status::InvalidArgument("path: " + QuoteForError(path) + " must end in \".mavprm\"");
   }
   const std::shared_ptr<const Snapshot> current = snapshot_.load();
   if (current == nullptr || current->roadmap == nullptr) {

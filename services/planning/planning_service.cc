@@ -12,6 +12,7 @@
 #include "mav/v1/mapping.grpc.pb.h"
 
 #include "mav/common/log.h"
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "services/common/grpc_status.h"
 #include "services/planning/convert.h"
@@ -299,7 +300,7 @@ grpc::Status PlanningService::GetPlan(grpc::ServerContext*, const v1::GetPlanReq
   std::shared_ptr<const StoredPlan> plan = core_->FindPlan(request->plan_id());
   if (plan == nullptr) {
     return ToGrpcStatus(Status::NotFound(
-        "plan_id: no plan '" + Echo(request->plan_id()) + "' (the server keeps the last " +
+        "plan_id: no plan " + QuoteForError(request->plan_id()) + " (the server keeps the last " +
         std::to_string(PlannerCore::kPlanHistory) + " successful plans)"));
   }
   if (Status s = FillPlanResponse(plan->outcome, plan->sample_dt_s, response); !s.ok()) {
@@ -329,9 +330,10 @@ grpc::Status PlanningService::SampleTrajectory(grpc::ServerContext*,
       }
       plan = core_->FindPlan(request->plan_id());
       if (plan == nullptr) {
-        return ToGrpcStatus(Status::NotFound(
-            "plan_id: no plan '" + Echo(request->plan_id()) + "' (the server keeps the last " +
-            std::to_string(PlannerCore::kPlanHistory) + " successful plans)"));
+        return ToGrpcStatus(
+            Status::NotFound("plan_id: no plan " + QuoteForError(request->plan_id()) +
+                             " (the server keeps the last " +
+                             std::to_string(PlannerCore::kPlanHistory) + " successful plans)"));
       }
       trajectory = &plan->outcome.result.trajectory;
       break;

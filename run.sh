@@ -6,8 +6,16 @@
 #   4. mav-eval localization runs the three stereo VO methods on it and prints the paper's
 #      Tables 1 and 2 beside ours;
 #   5. mav-eval mapping builds both maps (sparse meshing, OctoMap + dense stereo) from the same
-#      keyframes and prints the paper's Tables 3 and 4 beside ours.
-# Environment: FRAMES (default 300), PRESET (room-easy), OUT (out/), MAV_SIM_PORT (50051).
+#      keyframes and prints the paper's Tables 3 and 4 beside ours;
+#   6. mav-planning loads the contest's power_plant.bt (maps/) with a PRM* roadmap
+#      (built once into OUT/power_plant.mavprm, ~15 s, then loaded in under a second) and
+#      mavctl plans the t4_3 legs through it and prints the table with the paper's figures;
+#   7. the closed loop through the services: mav-simulator flies the contest's t3_1 lock-stepped
+#      on the rotor speeds mav-control (the paper's controller) sends over DDS and prints the
+#      contest's score; then t4_3's first leg, planned by mav-planning and flown through
+#      mav-control, with the vehicle's end point and collisions.
+# Environment: FRAMES (default 300), PRESET (room-easy), OUT (out/), MAV_SIM_PORT (50051),
+# MAV_PLANNING_PORT (50054), MAV_CONTROL_PORT (50055), FLIGHT_SEED (1).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 "$repo/deploy/setup.sh"
@@ -17,6 +25,9 @@ frames="${FRAMES:-300}"
 preset="${PRESET:-room-easy}"
 out="${OUT:-$repo/out}"
 port="${MAV_SIM_PORT:-50051}"
+plan_port="${MAV_PLANNING_PORT:-50054}"
+ctl_port="${MAV_CONTROL_PORT:-50055}"
+flight_seed="${FLIGHT_SEED:-1}"
 data="$out/$preset-$frames"
 mkdir -p "$out"
 # A DDS domain of its own keeps this run apart from anything else on the machine.
@@ -24,7 +35,7 @@ export MAV_DDS_DOMAIN="${MAV_DDS_DOMAIN:-$(( ($$ % 200) + 1 ))}"
 
 step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
-step "1/5 rendering $frames frames of $preset into $data"
+step "1/7 rendering $frames frames of $preset into $data"
 if [[ -f "$data/ground_truth/scenario.yaml" ]]; then
   echo "(already there; delete $data to render again)"
 else
@@ -32,20 +43,30 @@ else
 fi
 "$bin/mav-sim" info "$data"
 
-step "2/5 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
+step "2/7 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
 "$bin/mav-simulator" --port "$port" > "$out/mav-simulator.log" 2>&1 &
 sim_pid=$!
-cleanup() { kill "$sim_pid" 2>/dev/null || true; wait "$sim_pid" 2>/dev/null || true; }
+pids=("$sim_pid")
+cleanup() {
+  for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null || true; done
+  for pid in "${pids[@]}"; do wait "$pid" 2>/dev/null || true; done
+  pids=()
+}
 trap cleanup EXIT
-for _ in $(seq 50); do
-  "$bin/mavctl" health --port "$port" > /dev/null 2>&1 && break
-  kill -0 "$sim_pid" 2>/dev/null || { cat "$out/mav-simulator.log"; exit 1; }
-  sleep 0.2
-done
+# wait_serving PORT PID LOG [TRIES]: until the service at PORT answers its health check (every
+# 0.2 s, 50 tries unless told).
+wait_serving() {
+  for _ in $(seq "${4:-50}"); do
+    "$bin/mavctl" health --port "$1" > /dev/null 2>&1 && return 0
+    kill -0 "$2" 2>/dev/null || { cat "$3"; exit 1; }
+    sleep 0.2
+  done
+}
+wait_serving "$port" "$sim_pid" "$out/mav-simulator.log"
 "$bin/mavctl" health --port "$port"
 "$bin/mavctl" sim load --euroc "$data" --port "$port"
 
-step "3/5 replaying in real time over DDS; mavctl listen reports what arrived"
+step "3/7 replaying in real time over DDS; mavctl listen reports what arrived"
 "$bin/mavctl" listen --topic all --frames "$frames" --timeout 60 &
 listen_pid=$!
 sleep 1  # let DDS discovery match the listener before the first frame
@@ -56,8 +77,60 @@ wait "$listen_pid" || listen_status=$?
 [[ $listen_status -eq 0 ]] || { echo "mavctl listen failed ($listen_status)" >&2; exit "$listen_status"; }
 
 cleanup  # the simulator's work is done; free the cores for the evaluation
-step "4/5 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
+step "4/7 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
 "$bin/mav-eval" localization --data "$data" --json "$out/localization-$preset-$frames.json"
 
-step "5/5 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
+step "5/7 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
 "$bin/mav-eval" mapping --data "$data" --json "$out/mapping-$preset-$frames.json"
+
+step "6/7 planning: the t4_3 legs on power_plant.bt through mav-planning"
+plant="$repo/maps/power_plant.bt"
+if [[ -f "$plant" ]]; then
+  [[ -f "$out/power_plant.mavprm" ]] ||
+    echo "(building the roadmap once into $out/power_plant.mavprm, ~15 s)"
+  "$bin/mav-planning" --port "$plan_port" --map "$plant" --roadmap "$out/power_plant.mavprm" \
+    > "$out/mav-planning.log" 2>&1 &
+  pids+=("$!")
+  wait_serving "$plan_port" "$!" "$out/mav-planning.log" 600
+  "$bin/mavctl" plan status --port "$plan_port"
+  "$bin/mavctl" plan legs --port "$plan_port" --points "2,-27,15;20,-15,15;25,0,5;0,0,1"
+else
+  echo "(no $plant here: skipped)"
+fi
+
+step "7/7 closed loop: t3_1 and a t4_3 leg flown by mav-control (paper controller) on mav-simulator, lock-stepped over DDS"
+"$bin/mav-simulator" --port "$port" > "$out/mav-simulator-flight.log" 2>&1 &
+pids+=("$!")
+wait_serving "$port" "$!" "$out/mav-simulator-flight.log"
+"$bin/mav-control" --port "$ctl_port" > "$out/mav-control.log" 2>&1 &
+pids+=("$!")
+wait_serving "$ctl_port" "$!" "$out/mav-control.log"
+sim() { "$bin/mavctl" sim flight "$@" --port "$port"; }
+ctl() { "$bin/mavctl" ctl "$@" --port "$ctl_port"; }
+sim load --task t3_1 --lockstep --seed "$flight_seed" > /dev/null
+ctl configure --task t3_1 --controller paper --lockstep > /dev/null
+# The contest server's part: arm once the estimator has converged (4 s after the first pose),
+# take off to the set point, hover there when it is published (10 s), to the end (30 s).
+sim run --until 5 --wait > /dev/null
+ctl arm > /dev/null
+ctl hover --position 0,0,1 --max-speed 1.5 --max-accel 2 > /dev/null
+sim run --pause-on-goal --wait > /dev/null
+ctl hover --position 0,0,1 --max-speed 1.5 --max-accel 2 > /dev/null
+sim run --wait
+ctl status
+if [[ -f "$plant" ]]; then
+  printf '\n-- t4_3, first leg: planned by mav-planning, fetched by mav-control (Planning.GetPlan), flown\n'
+  ctl disarm > /dev/null  # t3_1 is over; Configure wants the motors off
+  sim load --task t4_3 --lockstep --seed "$flight_seed" > /dev/null
+  ctl configure --task t4_3 --controller paper --lockstep > /dev/null
+  sim run --until 5 --wait > /dev/null
+  ctl arm > /dev/null
+  ctl hover --position 0,0,2 --max-speed 1.5 --max-accel 2 > /dev/null  # the take-off point
+  sim run --pause-on-goal --wait > /dev/null                              # goal 0 at 10 s
+  "$bin/mavctl" plan path --port "$plan_port" --start 0,0,2 --goal 2,-27,15 | tee "$out/t4_3-leg1.txt"
+  plan_id="$(awk '/^plan_id:/ {print $2}' "$out/t4_3-leg1.txt")"
+  ctl trajectory --plan "$plan_id" --planning "127.0.0.1:$plan_port" > /dev/null
+  sim run --until 25 --wait     # the leg (~6 s) and the hover at the goal (2, -27, 15)
+fi
+cleanup
+

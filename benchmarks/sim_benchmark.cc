@@ -142,7 +142,7 @@ BENCHMARK_CAPTURE(BM_Radiance, plant, std::string("plant"))->Unit(benchmark::kMi
 void BM_ComputeOccupancy(benchmark::State& state) {
   std::shared_ptr<mav::sim::World> world = mav::sim::BuildRoomWorld(mav::sim::RoomStyle());
   for (auto _ : state) {
-    mav::sim::OccupancyGrid grid = mav::sim::ComputeOccupancy(*world, 0.05);
+    mav::dataset::OccupancyGrid grid = mav::sim::ComputeOccupancy(*world, 0.05);
     benchmark::DoNotOptimize(grid.states().data());
     state.counters["voxels"] = static_cast<double>(grid.num_voxels());
   }

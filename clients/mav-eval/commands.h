@@ -9,5 +9,7 @@ namespace mav::eval_cli {
 
 int RunLocalization(const std::vector<std::string>& args);
 int RunMapping(const std::vector<std::string>& args);
+int RunControl(const std::vector<std::string>& args);
+int RunPlanning(const std::vector<std::string>& args);
 
 }  // namespace mav::eval_cli

@@ -32,6 +32,27 @@ std::string Number(double v) {
   return buf;
 }
 
+std::string ScalarText(const JsonReport::Scalar& v) {
+  return std::holds_alternative<double>(v) ? Number(std::get<double>(v))
+                                           : Quote(std::get<std::string>(v));
+}
+
+std::string ValueText(const JsonReport::Value& v) {
+  if (std::holds_alternative<double>(v)) return Number(std::get<double>(v));
+  if (std::holds_alternative<std::string>(v)) return Quote(std::get<std::string>(v));
+  const auto& records = std::get<std::vector<JsonReport::Record>>(v);
+  std::string out = "[";
+  for (size_t r = 0; r < records.size(); ++r) {
+    out += (r == 0 ? "\n      {" : ",\n      {");
+    for (size_t f = 0; f < records[r].size(); ++f) {
+      out += (f == 0 ? "" : ", ") + Quote(records[r][f].first) + ": " +
+             ScalarText(records[r][f].second);
+    }
+    out += "}";
+  }
+  return out + (records.empty() ? "]" : "\n    ]");
+}
+
 }  // namespace
 
 void JsonReport::Set(const std::string& group, const std::string& metric, Value value) {
@@ -56,9 +77,7 @@ std::string JsonReport::ToString() const {
     const auto& metrics = groups_[g].second;
     for (size_t i = 0; i < metrics.size(); ++i) {
       out += (i == 0 ? "\n    " : ",\n    ") + Quote(metrics[i].first) + ": ";
-      const Value& v = metrics[i].second;
-      out += std::holds_alternative<double>(v) ? Number(std::get<double>(v))
-                                               : Quote(std::get<std::string>(v));
+      out += ValueText(metrics[i].second);
     }
     out += g + 1 < groups_.size() ? "\n  },\n" : "\n  }\n";
   }

@@ -1,5 +1,7 @@
 #pragma once
-// A minimal writer for the flat JSON mav-eval emits: {group: {metric: number|string}}.
+// A minimal writer for the JSON mav-eval emits: {group: {metric: value}}, where a value is a
+// number, a string, or an array of records [{field: number|string, ...}, ...] (the per-query
+// lists of mav-eval planning).
 
 #include <string>
 #include <utility>
@@ -12,7 +14,10 @@ namespace mav::eval_cli {
 
 class JsonReport {
  public:
-  using Value = std::variant<double, std::string>;
+  using Scalar = std::variant<double, std::string>;
+  // One element of an array value: fields in order.
+  using Record = std::vector<std::pair<std::string, Scalar>>;
+  using Value = std::variant<double, std::string, std::vector<Record>>;
   void Set(const std::string& group, const std::string& metric, Value value);
   std::string ToString() const;
   Status WriteFile(const std::string& path) const;

@@ -25,6 +25,7 @@
 #include "mav/dataset/trajectory_io.h"
 #include "mav/eval/trajectory_metrics.h"
 #include "mav/localization/odometry.h"
+#include "mav/localization/rig_odometry.h"
 #include "paper.h"
 #include "plot.h"
 
@@ -35,7 +36,7 @@ using localization::Method;
 
 struct MethodRun {
   Method method;
-  std::unique_ptr<localization::StereoOdometry> odometry;
+  std::unique_ptr<localization::RigOdometry> odometry;  // the localization service's code path
   std::vector<dataset::StampedPose> T_world_body;  // estimate in the ground truth's world frame
   std::vector<double> runtime_ms;                  // wall time of Process()
   int lost_frames = 0;
@@ -176,28 +177,29 @@ int RunLocalization(const std::vector<std::string>& args) {
               << "/state_groundtruth_estimate0/data.csv: no ground truth, nothing to compare\n";
     return 1;
   }
-  auto rectifier = camera::StereoRectifier::Create(reader->calibration());
-  if (!rectifier.ok()) {
-    std::cerr << "mav-eval localization: " << rectifier.status().message() << "\n";
+  // Ground truth as stamped body poses; each odometry starts at the first frame's true pose.
+  std::vector<dataset::StampedPose> gt;
+  for (const auto& s : reader->ground_truth()) gt.push_back({s.t_ns, s.T_world_body});
+  const int64_t n =
+      max_frames > 0 ? std::min(max_frames, reader->num_frames()) : reader->num_frames();
+  auto first = eval::AssociateByTime({{reader->frame_times().front(), geometry::SE3()}}, gt);
+  if (!first.ok()) {
+    std::cerr << "mav-eval localization: first frame: " << first.status().message() << "\n";
     return 1;
   }
   std::vector<MethodRun> runs;
   for (Method m : methods) {
-    auto odometry = localization::StereoOdometry::Create(m, rectifier->rectified());
+    localization::RigOdometryOptions options;
+    options.method = m;
+    options.calibration = reader->calibration();
+    options.T_world_body0 = first->ground_truth.front();
+    auto odometry = localization::RigOdometry::Create(options);
     if (!odometry.ok()) {
       std::cerr << "mav-eval localization: " << odometry.status().message() << "\n";
       return 1;
     }
     runs.push_back({m, std::move(odometry).value(), {}, {}, 0, {}});
   }
-
-  // Ground truth as stamped body poses; the VO's world is the first frame's rectified left camera.
-  std::vector<dataset::StampedPose> gt;
-  for (const auto& s : reader->ground_truth()) gt.push_back({s.t_ns, s.T_world_body});
-  const int64_t n =
-      max_frames > 0 ? std::min(max_frames, reader->num_frames()) : reader->num_frames();
-  const geometry::SE3 T_body_cam = rectifier->T_body_rect0();
-  std::optional<geometry::SE3> T_world_body0;
 
   ProgressBar progress("localization", n);
   cv::Mat raw_left, raw_right, left, right;
@@ -206,33 +208,26 @@ int RunLocalization(const std::vector<std::string>& args) {
       std::cerr << "\nmav-eval localization: " << s.message() << "\n";
       return 1;
     }
-    if (Status s = rectifier->Rectify(raw_left, raw_right, &left, &right); !s.ok()) {
+    // Rectified once for all methods (they share the calibration).
+    if (Status s = runs.front().odometry->Rectify(raw_left, raw_right, false, &left, &right);
+        !s.ok()) {
       std::cerr << "\nmav-eval localization: " << s.message() << "\n";
       return 1;
     }
     const int64_t t_ns = reader->frame_times()[static_cast<size_t>(i)];
-    if (!T_world_body0) {
-      auto first = eval::AssociateByTime({{t_ns, geometry::SE3()}}, gt);
-      if (!first.ok()) {
-        std::cerr << "\nmav-eval localization: first frame: " << first.status().message() << "\n";
-        return 1;
-      }
-      T_world_body0 = first->ground_truth.front();
-    }
     for (MethodRun& run : runs) {
       const int64_t start = MonotonicNowNs();
-      auto frame = run.odometry->Process(t_ns, left, right);
-      run.runtime_ms.push_back(NsToSeconds(MonotonicNowNs() - start) * 1e3);
+      auto frame = run.odometry->Process(t_ns, left, right, /*rectified=*/true);
+      run.runtime_ms.push_back(MsSince(start));
       if (!frame.ok()) {
         std::cerr << "\nmav-eval localization: frame " << i << ": " << frame.status().message()
                   << "\n";
         return 1;
       }
-      if (frame->state == localization::TrackingState::kLost) {
+      if (frame->state == localization::ReportedState::kLost) {
         if (run.lost_frames++ == 0) run.first_lost_reason = frame->lost_reason;
       }
-      run.T_world_body.push_back(
-          {t_ns, *T_world_body0 * T_body_cam * frame->T_world_cam * T_body_cam.Inverse()});
+      run.T_world_body.push_back({t_ns, frame->T_world_out});
     }
     progress.Update(i + 1);
   }

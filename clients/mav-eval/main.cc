@@ -1,6 +1,9 @@
 // mav-eval: reproduces the reference paper's tables with our own code and data.
 //   mav-eval localization --data DIR [--method ...] [--out DIR] [--json FILE]
 //   mav-eval mapping --data DIR [--method ...] [--out DIR] [--json FILE]
+//   mav-eval control [--task T|all] [--controller paper|lee|all] [--task-file F] [--out DIR]
+//   mav-eval planning --map FILE.bt [--queries FILE] [--robot-radius M] [--seed S] [--out DIR]
+//                     [--json FILE]
 
 #include <iostream>
 #include <string>
@@ -15,6 +18,9 @@ constexpr const char* kUsage =
     "commands:\n"
     "  localization   stereo VO accuracy and runtime (the paper's Tables 1 and 2)\n"
     "  mapping        sparse mesh vs OctoMap: collision-check MCC and runtime (Tables 3 and 4)\n"
+    "  control        the EuRoC contest's flight tasks, scored (Sec. 3), paper vs Lee controller\n"
+    "  planning       roadmap planner vs OMPL peers: path length, planning and flight time "
+    "(Sec. 3)\n"
     "run 'mav-eval <command> --help' for the flags of a command\n";
 
 }  // namespace
@@ -28,6 +34,8 @@ int main(int argc, char** argv) {
   const std::vector<std::string> args(argv + 2, argv + argc);
   if (command == "localization") return mav::eval_cli::RunLocalization(args);
   if (command == "mapping") return mav::eval_cli::RunMapping(args);
+  if (command == "control") return mav::eval_cli::RunControl(args);
+  if (command == "planning") return mav::eval_cli::RunPlanning(args);
   if (command == "--help" || command == "-h" || command == "help") {
     std::cout << kUsage;
     return 0;

@@ -26,6 +26,7 @@
 #include "mav/common/flags.h"
 #include "mav/common/progress.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/eval/trajectory_metrics.h"
 #include "mav/mapping/collision_eval.h"
 #include "mav/mapping/mesh.h"
@@ -36,10 +37,10 @@
 namespace mav::eval_cli {
 namespace {
 
+using dataset::OccupancyGrid;
+using dataset::VoxelState;
 using mapping::CollisionOutcomes;
 using mapping::MappingMethod;
-using mapping::VoxelGrid;
-using mapping::VoxelState;
 
 constexpr const char* kCommand = "mav-eval mapping";
 
@@ -63,17 +64,9 @@ std::string ReadPreset(const std::string& data) {
   return "";
 }
 
-// The simulator's grid has the same layout and state values as the mapping library's.
-VoxelGrid ToVoxelGrid(const sim::OccupancyGrid& g) {
-  static_assert(sizeof(VoxelState) == sizeof(sim::VoxelState));
-  std::vector<VoxelState> states(g.states().size());
-  std::memcpy(states.data(), g.states().data(), states.size());
-  return VoxelGrid(mapping::GridGeometry{g.origin(), g.resolution(), g.size()}, std::move(states));
-}
-
 // The evaluation volume: the bounding box (voxel indices, [min, max)) of the ground truth's known
 // voxels, i.e. the world's bounds (room interior plus walls, floor and ceiling).
-bool KnownRegion(const VoxelGrid& truth, Eigen::Vector3i* lo, Eigen::Vector3i* hi) {
+bool KnownRegion(const OccupancyGrid& truth, Eigen::Vector3i* lo, Eigen::Vector3i* hi) {
   *lo = truth.size();
   *hi = Eigen::Vector3i::Zero();
   const Eigen::Vector3i& n = truth.size();
@@ -136,7 +129,7 @@ cv::Scalar HeightColour(double z, double z_lo, double z_hi) {
 }
 
 Status WriteMappingFigure(const std::string& path, const std::string& title,
-                          const mapping::MappingOutput& out, const VoxelGrid& truth) {
+                          const mapping::MappingOutput& out, const OccupancyGrid& truth) {
   const int w = 640, h = 520;
   cv::Mat canvas(h, 3 * w, CV_8UC3, cv::Scalar(255, 255, 255));
   const Eigen::Vector3d& lo = truth.origin();
@@ -199,7 +192,7 @@ Status WriteMappingFigure(const std::string& path, const std::string& title,
   // Right: our occupancy grid, occupied voxels with a free or unknown 6-neighbour (the visible
   // shell), height-coloured, far voxels first.
   {
-    const VoxelGrid& g = out.has_sparse_mesh ? out.sparse_mesh_grid : out.octomap_grid;
+    const OccupancyGrid& g = out.has_sparse_mesh ? out.sparse_mesh_grid : out.octomap_grid;
     const Eigen::Vector3i n = g.size();
     struct Vox {
       double depth;
@@ -414,9 +407,9 @@ int RunMapping(const std::vector<std::string>& args) {
                 "them, as the paper used Vicon poses)");
   }
   const std::string occupancy_path = data + "/ground_truth/occupancy.mavocc";
-  auto truth_sim = sim::OccupancyGrid::Read(occupancy_path);
-  if (!truth_sim.ok()) return Fail(truth_sim.status().message());
-  const VoxelGrid truth = ToVoxelGrid(*truth_sim);
+  Result<OccupancyGrid> truth_read = dataset::ReadMavocc(occupancy_path);
+  if (!truth_read.ok()) return Fail(truth_read.status().message());
+  const OccupancyGrid truth = std::move(*truth_read);
   auto rectifier = camera::StereoRectifier::Create(reader->calibration());
   if (!rectifier.ok()) return Fail(rectifier.status().message());
   auto pipeline = mapping::MappingPipeline::Create(rectifier->rectified(), options);
@@ -579,7 +572,8 @@ int RunMapping(const std::vector<std::string>& args) {
       s = write(mapping::WritePly(out_dir + "/points.ply", cloud), "points.ply");
     }
     if (s.ok()) {
-      s = write(out->sparse_mesh_grid.WriteOctomap(out_dir + "/sparse_mesh.bt"), "sparse_mesh.bt");
+      s = write(dataset::WriteOctomapBt(out->sparse_mesh_grid, out_dir + "/sparse_mesh.bt"),
+                "sparse_mesh.bt");
     }
   }
   if (s.ok() && out->has_octomap) {

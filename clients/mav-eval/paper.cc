@@ -37,4 +37,9 @@ const std::array<PaperMappingRow, 3>& PaperMapping() {
   return kRows;
 }
 
+const PaperControlFigures& PaperControl() {
+  static const PaperControlFigures kFigures;
+  return kFigures;
+}
+
 }  // namespace mav::eval_cli

@@ -35,7 +35,7 @@ double GridStep(double span) {
 }  // namespace
 
 Status WriteTopViewPlot(const std::string& path, const std::string& title,
-                        const std::vector<PlotSeries>& series) {
+                        const std::vector<PlotSeries>& series, const TopViewHeightMap* background) {
   Eigen::Vector2d lo(kMaxPlotCoordinateM, kMaxPlotCoordinateM);
   Eigen::Vector2d hi(-kMaxPlotCoordinateM, -kMaxPlotCoordinateM);
   int64_t not_drawn = 0;
@@ -48,6 +48,11 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
       lo = lo.cwiseMin(p.head<2>());
       hi = hi.cwiseMax(p.head<2>());
     }
+  }
+  if (background != nullptr && background->nx > 0 && background->ny > 0) {
+    lo = lo.cwiseMin(background->origin);
+    hi = hi.cwiseMax(background->origin +
+                     background->cell * Eigen::Vector2d(background->nx, background->ny));
   }
   if (lo.x() > hi.x()) {
     return Status::InvalidArgument(path + ": no finite position to draw (" +
@@ -63,6 +68,25 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
   };
 
   cv::Mat canvas(size, size, CV_8UC3, cv::Scalar(255, 255, 255));
+  if (background != nullptr) {
+    const TopViewHeightMap& m = *background;
+    for (int j = 0; j < m.ny; ++j) {
+      for (int i = 0; i < m.nx; ++i) {
+        const float top = m.top_m[static_cast<size_t>(j) * m.nx + i];
+        if (!std::isfinite(top)) continue;
+        const double t = std::clamp((top - m.z_min) / std::max(1e-9, m.z_max - m.z_min), 0.0, 1.0);
+        cv::Mat1b level(1, 1, static_cast<uint8_t>(std::lround(t * 255)));
+        cv::Mat3b colour;
+        cv::applyColorMap(level, colour, cv::COLORMAP_JET);
+        // Lighter, so the paths drawn on top stand out.
+        const cv::Vec3b c = colour(0, 0);
+        const cv::Scalar light(0.55 * c[0] + 115, 0.55 * c[1] + 115, 0.55 * c[2] + 115);
+        const Eigen::Vector2d a = m.origin + m.cell * Eigen::Vector2d(i, j + 1);
+        const Eigen::Vector2d b = m.origin + m.cell * Eigen::Vector2d(i + 1, j);
+        cv::rectangle(canvas, to_px(a), to_px(b), light, cv::FILLED);
+      }
+    }
+  }
   // Grid lines at multiples of the step, labelled on the axes. Counted by an integer: with a
   // step far below the coordinates' precision, x += step would never move.
   const double grid = GridStep(span);
@@ -85,8 +109,8 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
     cv::putText(canvas, cv::format("%g", y), cv::Point(8, a.y + 4), cv::FONT_HERSHEY_SIMPLEX, 0.4,
                 cv::Scalar(90, 90, 90), 1, cv::LINE_AA);
   }
-  for (size_t k = 0; k < series.size(); ++k) {
-    const PlotSeries& s = series[k];
+  int legend = 0;
+  for (const PlotSeries& s : series) {
     // A point that cannot be drawn breaks the line into pieces rather than joining its
     // neighbours across it.
     std::vector<std::vector<cv::Point>> pieces(1);
@@ -104,7 +128,8 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
     if (!pieces.front().empty()) {
       cv::circle(canvas, pieces.front().front(), 5, colour, cv::FILLED, cv::LINE_AA);
     }
-    const int y = margin + 20 * static_cast<int>(k);
+    if (s.label.empty()) continue;
+    const int y = margin + 20 * static_cast<int>(legend++);
     cv::line(canvas, cv::Point(size - 230, y), cv::Point(size - 200, y), colour, 3);
     cv::putText(canvas, s.label, cv::Point(size - 190, y + 5), cv::FONT_HERSHEY_SIMPLEX, 0.5,
                 cv::Scalar(0, 0, 0), 1, cv::LINE_AA);

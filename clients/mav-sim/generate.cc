@@ -4,14 +4,12 @@
 // Scenario::RenderStereo is a pure function of (preset, seed, frame) and EurocWriter sorts the
 // frame list on Close(), the output does not depend on the number of threads or on scheduling.
 
-#include <atomic>
 #include <charconv>
-#include <chrono>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
-#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -24,8 +22,10 @@
 #include "mav/common/progress.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/scenario.h"
+#include "mav/sim/scenario_source.h"
 #include "mav/sim/world.h"
 
 namespace mav::sim_cli {
@@ -106,43 +106,28 @@ std::string ScenarioYaml(const GenerateFlags& flags, const sim::Scenario& scenar
   return buffer;
 }
 
-// Renders and writes every frame with `threads` workers. Returns the first error.
+// Renders and writes every frame on `threads` threads of a sim::FramePrefetcher (the simulator
+// service's render-ahead pool); the PNGs are written on the rendering threads too. Returns the
+// first error.
 Status RenderFrames(const sim::Scenario& scenario, dataset::EurocWriter* writer, int threads) {
   const int64_t n = scenario.num_frames();
-  std::atomic<int64_t> next{0};
-  std::atomic<int64_t> done{0};
-  std::atomic<bool> failed{false};
-  std::mutex error_mutex;
-  Status first_error;
-  std::vector<std::thread> pool;
-  pool.reserve(threads);
-  for (int t = 0; t < threads; ++t) {
-    pool.emplace_back([&] {
-      cv::Mat left, right;
-      while (!failed.load()) {
-        const int64_t k = next.fetch_add(1);
-        if (k >= n) break;
-        scenario.RenderStereo(k, &left, &right);
-        const Status s = writer->WriteStereo(scenario.FrameTimeNs(k), left, right);
-        if (!s.ok()) {
-          std::lock_guard<std::mutex> lock(error_mutex);
-          if (first_error.ok()) first_error = s.WithContext("frame " + std::to_string(k));
-          failed = true;
-          break;
-        }
-        done.fetch_add(1);
-      }
-    });
-  }
+  sim::FramePrefetcher::Frames frames{n, [&scenario](int64_t k) { return scenario.FrameTimeNs(k); },
+                                      [&scenario](int64_t k, cv::Mat* left, cv::Mat* right) {
+                                        scenario.RenderStereo(k, left, right);
+                                        return Status::Ok();
+                                      }};
+  sim::FramePrefetcher prefetcher(std::move(frames), threads, /*depth=*/2 * threads,
+                                  [writer](const sim::RenderedFrame& f) {
+                                    return writer->WriteStereo(f.t_ns, f.left, f.right);
+                                  });
   ProgressBar progress("rendering", n);
-  while (done.load() < n && !failed.load()) {
-    progress.Update(done.load());
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  for (int64_t k = 0; k < n; ++k) {
+    Result<sim::RenderedFrame> frame = prefetcher.Get(k);
+    if (!frame.ok()) return frame.status().WithContext("frame " + std::to_string(k));
+    progress.Update(k + 1);
   }
-  for (std::thread& t : pool) t.join();
-  progress.Update(done.load());
   progress.Finish();
-  return first_error;
+  return Status::Ok();
 }
 
 int Fail(const Status& status) {
@@ -239,9 +224,9 @@ int RunGenerate(const std::vector<std::string>& args) {
   if (Status s = (*writer)->Close(); !s.ok()) return Fail(s);
 
   const int64_t occupancy_start_ns = MonotonicNowNs();
-  const sim::OccupancyGrid grid = scenario->ComputeOccupancy(resolution);
-  if (Status s = grid.WriteOctomap(gt_dir + "/occupancy.bt"); !s.ok()) return Fail(s);
-  if (Status s = grid.Write(gt_dir + "/occupancy.mavocc"); !s.ok()) return Fail(s);
+  const dataset::OccupancyGrid grid = scenario->ComputeOccupancy(resolution);
+  if (Status s = dataset::WriteOctomapBt(grid, gt_dir + "/occupancy.bt"); !s.ok()) return Fail(s);
+  if (Status s = dataset::WriteMavocc(grid, gt_dir + "/occupancy.mavocc"); !s.ok()) return Fail(s);
   const int64_t occupancy_ns = MonotonicNowNs() - occupancy_start_ns;
   if (Status s = WriteStringToFileAtomic(gt_dir + "/scenario.yaml",
                                          ScenarioYaml(flags, *scenario, resolution));

@@ -13,6 +13,7 @@
 #include "mav/common/flags.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/sim/occupancy.h"
 
 namespace mav::sim_cli {
@@ -116,14 +117,14 @@ int RunInfo(const std::vector<std::string>& args) {
   }
   const std::string occupancy_path = dir + "/ground_truth/occupancy.mavocc";
   if (PathExists(occupancy_path)) {
-    auto grid = sim::OccupancyGrid::Read(occupancy_path);
+    auto grid = dataset::ReadMavocc(occupancy_path);
     if (!grid.ok()) {
       PrintError(kCommand, grid.status().ToString());
       return kExitFailure;
     }
     const Eigen::Vector3i& size = grid->size();
     const double total = static_cast<double>(grid->num_voxels());
-    const auto pct = [&](sim::VoxelState s) {
+    const auto pct = [&](dataset::VoxelState s) {
       return 100.0 * static_cast<double>(grid->Count(s)) / total;
     };
     std::printf(
@@ -131,8 +132,8 @@ int RunInfo(const std::vector<std::string>& args) {
         "%.2f)): %.2f %% occupied, %.2f %% free, %.2f %% unknown\n",
         size.x(), size.y(), size.z(), grid->resolution(), size.x() * grid->resolution(),
         size.y() * grid->resolution(), size.z() * grid->resolution(), grid->origin().x(),
-        grid->origin().y(), grid->origin().z(), pct(sim::VoxelState::kOccupied),
-        pct(sim::VoxelState::kFree), pct(sim::VoxelState::kUnknown));
+        grid->origin().y(), grid->origin().z(), pct(dataset::VoxelState::kOccupied),
+        pct(dataset::VoxelState::kFree), pct(dataset::VoxelState::kUnknown));
   }
   const std::string scenario_path = dir + "/ground_truth/scenario.yaml";
   if (auto text = ReadFileToString(scenario_path); text.ok()) {

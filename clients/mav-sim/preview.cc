@@ -18,6 +18,7 @@
 #include "mav/common/flags.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/dataset/stereo_pair.h"
 #include "mav/sim/occupancy.h"
 
@@ -109,10 +110,10 @@ int RunPreview(const std::vector<std::string>& args) {
   const int width = stereo.cols;
 
   // Bottom: the slice.
-  std::optional<sim::OccupancyGrid> grid;
+  std::optional<dataset::OccupancyGrid> grid;
   const std::string occupancy_path = dir + "/ground_truth/occupancy.mavocc";
   if (PathExists(occupancy_path)) {
-    auto read = sim::OccupancyGrid::Read(occupancy_path);
+    auto read = dataset::ReadMavocc(occupancy_path);
     if (!read.ok()) {
       PrintError(kCommand, read.status().ToString());
       return kExitFailure;
@@ -150,9 +151,10 @@ int RunPreview(const std::vector<std::string>& args) {
     for (int v = 0; v < height; ++v) {
       for (int u = 0; u < width; ++u) {
         const Eigen::Vector2d xy = view.ToWorld(u, v);
-        const sim::VoxelState s = grid->StateAt(Eigen::Vector3d(xy.x(), xy.y(), slice_z));
-        const uint8_t grey =
-            s == sim::VoxelState::kOccupied ? 40 : (s == sim::VoxelState::kFree ? 235 : 128);
+        const dataset::VoxelState s = grid->StateAt(Eigen::Vector3d(xy.x(), xy.y(), slice_z));
+        const uint8_t grey = s == dataset::VoxelState::kOccupied
+                                 ? 40
+                                 : (s == dataset::VoxelState::kFree ? 235 : 128);
         slice.at<cv::Vec3b>(v, u) = cv::Vec3b(grey, grey, grey);
       }
     }

@@ -8,9 +8,11 @@
 #include <grpcpp/client_context.h>
 #include <grpcpp/support/status.h>
 
+#include "mav/common/parse.h"
 #include "mav/common/time.h"
 #include "mav/transport/flags.h"
 #include "mav/transport/grpc_server.h"
+#include "services/common/grpc_status.h"
 
 namespace mav::mavctl {
 
@@ -53,6 +55,21 @@ std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
   return positional;
 }
 
+Result<std::vector<double>> ParseNumbers(const std::string& text, size_t n,
+                                         const std::string& flag) {
+  std::vector<double> out;
+  for (std::string_view field : SplitFields(text, ',')) {
+    MAV_ASSIGN_OR_RETURN(double v, ParseDouble(Trim(field), flag));
+    if (!std::isfinite(v)) return Status::InvalidArgument(flag + ": not finite");
+    out.push_back(v);
+  }
+  if (out.size() != n) {
+    return Status::InvalidArgument(flag + ": expected " + std::to_string(n) +
+                                   " comma-separated numbers, got " + std::to_string(out.size()));
+  }
+  return out;
+}
+
 void SetDeadline(const Connection& connection, grpc::ClientContext* context) {
   context->set_deadline(std::chrono::system_clock::now() +
                         std::chrono::nanoseconds(SecondsToNs(connection.timeout_s)));
@@ -60,7 +77,7 @@ void SetDeadline(const Connection& connection, grpc::ClientContext* context) {
 
 int ReportRpcError(const Connection& connection, const std::string& rpc,
                    const grpc::Status& status) {
-  const Status mapped = transport::FromGrpcStatus(status);
+  const Status mapped = service_common::FromGrpcStatus(status);
   if (status.error_code() == grpc::StatusCode::UNAVAILABLE) {
     std::cerr << "mavctl: cannot connect to " << connection.Target() << " (" << rpc
               << "): " << status.error_message() << "\n";
@@ -74,6 +91,21 @@ int ReportRpcError(const Connection& connection, const std::string& rpc,
                       : mapped.ToString())
               << "\n";
   }
+  return 1;
+}
+
+int CallUnary(const Connection& connection, const std::string& rpc,
+              const std::function<grpc::Status(grpc::ClientContext*)>& call) {
+  grpc::ClientContext context;
+  SetDeadline(connection, &context);
+  const grpc::Status status = call(&context);
+  return status.ok() ? 0 : ReportRpcError(connection, rpc, status);
+}
+
+int ReportDownloadError(const Connection& connection, const std::string& rpc, const Status& s) {
+  if (s.ok()) return 0;
+  std::cerr << "mavctl: " << rpc << " at " << connection.Target()
+            << ": the download is broken: " << s.message() << "\n";
   return 1;
 }
 

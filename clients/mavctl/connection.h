@@ -3,16 +3,20 @@
 // port environment variable as the fallback) and --timeout (each RPC's deadline).
 
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "mav/common/flags.h"
+#include <grpcpp/client_context.h>
+#include <grpcpp/support/status.h>
+#include <grpcpp/support/sync_stream.h>
 
-namespace grpc {
-class ClientContext;
-class Status;
-}  // namespace grpc
+#include "mav/v1/common.pb.h"
+
+#include "mav/common/flags.h"
+#include "mav/common/status.h"
 
 namespace mav::mavctl {
 
@@ -38,6 +42,10 @@ std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
                                      const std::vector<std::string>& args,
                                      bool allow_positional = false);
 
+// "a,b,c,..." with exactly `n` finite numbers (a flag's value); InvalidArgument naming the flag.
+Result<std::vector<double>> ParseNumbers(const std::string& text, size_t n,
+                                         const std::string& flag);
+
 // Sets the RPC deadline from --timeout.
 void SetDeadline(const Connection& connection, grpc::ClientContext* context);
 
@@ -45,5 +53,56 @@ void SetDeadline(const Connection& connection, grpc::ClientContext* context);
 // its code) and returns the exit code 1.
 int ReportRpcError(const Connection& connection, const std::string& rpc,
                    const grpc::Status& status);
+
+// Prints "mavctl: <rpc> at <target>: the download is broken: ..." for a non-OK status; returns
+// 0 for OK, else 1.
+int ReportDownloadError(const Connection& connection, const std::string& rpc, const Status& s);
+
+// One unary call with the --timeout deadline: `call(context)` makes it. Returns 0, or prints
+// the failure (ReportRpcError) and returns 1, so that a subcommand reads
+//   if (int rc = CallUnary(connection, "Reset", [&](grpc::ClientContext* c) {
+//         return stub->Reset(c, request, &response); })) return rc;
+int CallUnary(const Connection& connection, const std::string& rpc,
+              const std::function<grpc::Status(grpc::ClientContext*)>& call);
+
+// A server-streamed file (FileChunk or a message carrying one): reads every message with the
+// --timeout deadline, checks that the chunks follow each other (offset = bytes so far) and add
+// up to the announced total size, and appends the bytes to *bytes. `chunk_of` picks the
+// FileChunk of a message; `on_message` (optional) sees each message (e.g. the first one's
+// metadata). Returns 0, or prints the failure and returns 1.
+template <typename Message>
+int DownloadChunks(
+    const Connection& connection, const std::string& rpc,
+    const std::function<std::unique_ptr<grpc::ClientReader<Message>>(grpc::ClientContext*)>& open,
+    const std::function<const v1::FileChunk&(const Message&)>& chunk_of, std::string* bytes,
+    const std::function<void(const Message&)>& on_message = {}) {
+  grpc::ClientContext context;
+  SetDeadline(connection, &context);
+  std::unique_ptr<grpc::ClientReader<Message>> reader = open(&context);
+  Message message;
+  uint64_t total = 0;
+  bool have_total = false;
+  Status broken;
+  while (reader->Read(&message)) {
+    if (on_message) on_message(message);
+    const v1::FileChunk& chunk = chunk_of(message);
+    if (broken.ok() && chunk.offset() != bytes->size()) {
+      broken = Status::DataLoss("chunk at offset " + std::to_string(chunk.offset()) + " after " +
+                                std::to_string(bytes->size()) + " bytes");
+    }
+    if (!have_total) {
+      total = chunk.total_size();
+      have_total = true;
+    }
+    bytes->append(chunk.data());
+  }
+  const grpc::Status status = reader->Finish();
+  if (!status.ok()) return ReportRpcError(connection, rpc, status);
+  if (broken.ok() && have_total && bytes->size() != total) {
+    broken = Status::DataLoss(std::to_string(bytes->size()) + " bytes received, " +
+                              std::to_string(total) + " announced");
+  }
+  return ReportDownloadError(connection, rpc, broken);
+}
 
 }  // namespace mav::mavctl

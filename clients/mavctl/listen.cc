@@ -9,6 +9,7 @@
 #include "mav_sensors.h"
 #include "mav_state.h"
 
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "services/common/dds_codec.h"
 
@@ -64,7 +65,8 @@ double Percentile(std::vector<double> values, double p) {
 
 bool ListenOptions::IsValid(std::string* why) const {
   if (topic != "stereo" && topic != "imu" && topic != "ground_truth" && topic != "all") {
-    if (why != nullptr) *why = "--topic: '" + topic + "' is not one of stereo|imu|ground_truth|all";
+    if (why != nullptr)
+      *why = "--topic: " + QuoteForError(topic) + " is not one of stereo|imu|ground_truth|all";
     return false;
   }
   if (frames < 0) {
@@ -151,7 +153,7 @@ Result<ListenReport> Listen(const ListenOptions& options, std::ostream& progress
           if (!samples.valid(i)) continue;
           const mav_dds_StereoFrame& frame = samples[i];
           stereo_seq.Add(static_cast<int64_t>(frame.sequence_number), now_mono);
-          const Status check = services::CheckStereoFrame(frame);
+          const Status check = service_common::CheckStereoFrame(frame);
           if (!check.ok()) {
             ++report.crc_failures;
             if (report.first_error.empty()) report.first_error = check.message();

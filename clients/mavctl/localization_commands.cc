@@ -178,11 +178,12 @@ int Configure(const std::vector<std::string>& args) {
       static_cast<uint32_t>(std::min<int64_t>(ransac_iterations, UINT32_MAX)));
   request.mutable_sparse()->set_inlier_threshold_px(inlier_threshold);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::LocalizationStatus response;
-  const grpc::Status status = stub->Configure(&context, request, &response);
-  if (!status.ok()) return ReportRpcError(connection, "Configure", status);
+  if (int rc = CallUnary(connection, "Configure", [&](grpc::ClientContext* c) {
+        return stub->Configure(c, request, &response);
+      })) {
+    return rc;
+  }
   std::cout << "configured\n";
   PrintStatus(response);
   return 0;
@@ -206,11 +207,12 @@ int Reset(const std::vector<std::string>& args) {
     request.mutable_initial_pose()->mutable_orientation()->set_w(1.0);
   }
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::LocalizationStatus response;
-  const grpc::Status status = stub->Reset(&context, request, &response);
-  if (!status.ok()) return ReportRpcError(connection, "Reset", status);
+  if (int rc = CallUnary(connection, "Reset", [&](grpc::ClientContext* c) {
+        return stub->Reset(c, request, &response);
+      })) {
+    return rc;
+  }
   std::cout << "reset\n";
   PrintStatus(response);
   return 0;
@@ -222,12 +224,12 @@ int GetStatus(const std::vector<std::string>& args) {
   AddConnectionFlags(&flags, &connection);
   ParseOrExit(&flags, &connection, args);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::LocalizationStatus response;
-  const grpc::Status status =
-      stub->GetStatus(&context, v1::LocalizationGetStatusRequest(), &response);
-  if (!status.ok()) return ReportRpcError(connection, "GetStatus", status);
+  if (int rc = CallUnary(connection, "GetStatus", [&](grpc::ClientContext* c) {
+        return stub->GetStatus(c, v1::LocalizationGetStatusRequest(), &response);
+      })) {
+    return rc;
+  }
   PrintStatus(response);
   return 0;
 }

@@ -6,6 +6,9 @@
 //   mavctl sim occupancy --out FILE [--resolution 0.05] [--format bt|mavocc]
 //   mavctl health [--port P] [--service NAME]
 //   mavctl listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]
+//   mavctl sim flight load|run|pause|status   (the simulator's flight mode)
+//   mavctl ctl configure|arm|disarm|hover|trajectory|gains|state|status   (mav-control)
+//   mavctl plan load|roadmap|path|legs|get|sample|status   (mav-planning)
 //
 // Every RPC has a deadline (--timeout, default 10 s). Exit status: 0 success, 1 the call failed
 // (message on stderr names the address and the status), 2 usage error.
@@ -25,9 +28,12 @@
 #include "mav/v1/simulator.grpc.pb.h"
 
 #include "clients/mavctl/connection.h"
+#include "clients/mavctl/control_commands.h"
 #include "clients/mavctl/listen.h"
 #include "clients/mavctl/localization_commands.h"
 #include "clients/mavctl/mapping_commands.h"
+#include "clients/mavctl/plan_commands.h"
+#include "mav/common/file.h"
 #include "mav/common/parse.h"
 #include "mav/common/time.h"
 #include "mav/transport/dds.h"
@@ -56,6 +62,9 @@ constexpr char kUsage[] =
     "  loc configure --method sparse-pixel|sparse-subpixel|dense [--euroc DIR | --simulator ADDR]\n"
     "  loc reset | loc status | loc trajectory --out FILE.tum   (port 50052)\n"
     "  map start|reset|insert|build|occupancy|query|mesh|status  (mavctl map --help; port 50053)\n"
+    "  sim flight load|run|pause|status  (mavctl sim flight --help; the flight mode)\n"
+    "  ctl configure|arm|disarm|hover|trajectory|gains|state|status  (mavctl ctl --help; 50055)\n"
+    "  plan load|roadmap|path|legs|get|sample|status  (mavctl plan --help; port 50054)\n"
     "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
     "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
 
@@ -127,11 +136,12 @@ void PrintStatus(const mav::v1::SimulatorStatus& s) {
 int SimCommand(const std::vector<std::string>& args) {
   if (args.empty()) {
     std::cerr << "mavctl: sim needs a subcommand: load|start|pause|step|status|calibration|"
-                 "occupancy\n";
+                 "occupancy|flight\n";
     return 2;
   }
   const std::string sub = args[0];
   const std::vector<std::string> rest(args.begin() + 1, args.end());
+  if (sub == "flight") return mav::mavctl::FlightCommand(rest);
   Connection connection;
   FlagParser flags("mavctl sim " + sub, "");
   AddConnectionFlags(&flags, &connection);
@@ -160,11 +170,12 @@ int SimCommand(const std::vector<std::string>& args) {
       request.mutable_euroc()->set_directory(euroc);
     }
     auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    grpc::ClientContext context;
-    SetDeadline(connection, &context);
     mav::v1::LoadScenarioResponse response;
-    const grpc::Status status = stub->LoadScenario(&context, request, &response);
-    if (!status.ok()) return ReportRpcError(connection, "LoadScenario", status);
+    if (int rc = CallUnary(connection, "LoadScenario", [&](grpc::ClientContext* c) {
+          return stub->LoadScenario(c, request, &response);
+        })) {
+      return rc;
+    }
     std::cout << "loaded\n";
     PrintSummary(response.scenario());
     return 0;
@@ -198,25 +209,27 @@ int SimCommand(const std::vector<std::string>& args) {
     request.set_wait_for_subscribers(static_cast<uint32_t>(wait_subscribers));
     request.set_wait_timeout_s(wait_timeout);
     auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    grpc::ClientContext context;
-    SetDeadline(connection, &context);
     mav::v1::SimulatorStatus response;
-    const grpc::Status status = stub->Start(&context, request, &response);
-    if (!status.ok()) return ReportRpcError(connection, "Start", status);
+    if (int rc = CallUnary(connection, "Start", [&](grpc::ClientContext* c) {
+          return stub->Start(c, request, &response);
+        })) {
+      return rc;
+    }
     PrintStatus(response);
     return 0;
   }
   if (sub == "pause" || sub == "status") {
     ParseOrExit(&flags, &connection, rest);
     auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    grpc::ClientContext context;
-    SetDeadline(connection, &context);
     mav::v1::SimulatorStatus response;
-    const grpc::Status status =
-        sub == "pause" ? stub->Pause(&context, mav::v1::SimulatorPauseRequest(), &response)
-                       : stub->GetStatus(&context, mav::v1::SimulatorGetStatusRequest(), &response);
-    if (!status.ok())
-      return ReportRpcError(connection, sub == "pause" ? "Pause" : "GetStatus", status);
+    if (int rc = CallUnary(
+            connection, sub == "pause" ? "Pause" : "GetStatus", [&](grpc::ClientContext* c) {
+              return sub == "pause"
+                         ? stub->Pause(c, mav::v1::SimulatorPauseRequest(), &response)
+                         : stub->GetStatus(c, mav::v1::SimulatorGetStatusRequest(), &response);
+            })) {
+      return rc;
+    }
     PrintStatus(response);
     return 0;
   }
@@ -234,23 +247,24 @@ int SimCommand(const std::vector<std::string>& args) {
     mav::v1::SimulatorStepRequest request;
     request.set_frames(static_cast<uint32_t>(*n));
     auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    grpc::ClientContext context;
-    SetDeadline(connection, &context);
     mav::v1::SimulatorStatus response;
-    const grpc::Status status = stub->Step(&context, request, &response);
-    if (!status.ok()) return ReportRpcError(connection, "Step", status);
+    if (int rc = CallUnary(connection, "Step", [&](grpc::ClientContext* c) {
+          return stub->Step(c, request, &response);
+        })) {
+      return rc;
+    }
     PrintStatus(response);
     return 0;
   }
   if (sub == "calibration") {
     ParseOrExit(&flags, &connection, rest);
     auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    grpc::ClientContext context;
-    SetDeadline(connection, &context);
     mav::v1::GetCalibrationResponse response;
-    const grpc::Status status =
-        stub->GetCalibration(&context, mav::v1::GetCalibrationRequest(), &response);
-    if (!status.ok()) return ReportRpcError(connection, "GetCalibration", status);
+    if (int rc = CallUnary(connection, "GetCalibration", [&](grpc::ClientContext* c) {
+          return stub->GetCalibration(c, mav::v1::GetCalibrationRequest(), &response);
+        })) {
+      return rc;
+    }
     std::cout << response.DebugString();
     return 0;
   }
@@ -274,18 +288,16 @@ int SimCommand(const std::vector<std::string>& args) {
     request.set_format(format == "bt" ? mav::v1::OCCUPANCY_FORMAT_OCTOMAP_BT
                                       : mav::v1::OCCUPANCY_FORMAT_MAVOCC);
     auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    grpc::ClientContext context;
-    SetDeadline(connection, &context);
-    auto reader = stub->GetGroundTruthOccupancy(&context, request);
     std::string bytes;
-    mav::v1::OccupancyChunk chunk;
-    while (reader->Read(&chunk)) bytes += chunk.chunk().data();
-    const grpc::Status status = reader->Finish();
-    if (!status.ok()) return ReportRpcError(connection, "GetGroundTruthOccupancy", status);
-    std::ofstream file(out, std::ios::binary);
-    file.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    if (!file) {
-      std::cerr << "mavctl: cannot write " << out << "\n";
+    if (int rc = DownloadChunks<mav::v1::OccupancyChunk>(
+            connection, "GetGroundTruthOccupancy",
+            [&](grpc::ClientContext* c) { return stub->GetGroundTruthOccupancy(c, request); },
+            [](const mav::v1::OccupancyChunk& m) -> const mav::v1::FileChunk& { return m.chunk(); },
+            &bytes)) {
+      return rc;
+    }
+    if (mav::Status s = mav::WriteStringToFileAtomic(out, bytes); !s.ok()) {
+      std::cerr << "mavctl: " << s.message() << "\n";
       return 1;
     }
     std::cout << "wrote " << out << " (" << bytes.size() << " bytes)\n";
@@ -362,6 +374,8 @@ int main(int argc, char** argv) {
   if (command == "listen") return ListenCommand(args);
   if (command == "loc") return mav::mavctl::LocalizationCommand(args);
   if (command == "map") return mav::mavctl::MappingCommand(args);
+  if (command == "ctl") return mav::mavctl::ControlCommand(args);
+  if (command == "plan") return mav::mavctl::PlanCommand(args);
   std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }

@@ -15,7 +15,9 @@
 
 #include "mav/v1/mapping.grpc.pb.h"
 
+#include "mav/common/file.h"
 #include "mav/common/parse.h"
+#include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "mav/transport/flags.h"
 #include "mav/transport/grpc_server.h"
@@ -63,22 +65,6 @@ std::unique_ptr<v1::Mapping::Stub> Connect(const Connection& connection) {
       grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials()));
 }
 
-// "a,b,c,..." with exactly `n` numbers; InvalidArgument naming the flag.
-Result<std::vector<double>> ParseNumbers(const std::string& text, size_t n,
-                                         const std::string& flag) {
-  std::vector<double> out;
-  for (std::string_view field : SplitFields(text, ',')) {
-    MAV_ASSIGN_OR_RETURN(double v, ParseDouble(Trim(field), flag));
-    if (!std::isfinite(v)) return Status::InvalidArgument(flag + ": not finite");
-    out.push_back(v);
-  }
-  if (out.size() != n) {
-    return Status::InvalidArgument(flag + ": expected " + std::to_string(n) +
-                                   " comma-separated numbers, got " + std::to_string(out.size()));
-  }
-  return out;
-}
-
 // Box from "x0,y0,z0,x1,y1,z1" (the server validates min <= max).
 Result<v1::Box> ParseBox(const std::string& text, const std::string& flag) {
   MAV_ASSIGN_OR_RETURN(std::vector<double> v, ParseNumbers(text, 6, flag));
@@ -96,7 +82,8 @@ Result<v1::MappingMethod> ParseMethod(const std::string& text, bool allow_empty)
   if (text == "sparse-mesh") return v1::MAPPING_METHOD_SPARSE_MESH;
   if (text == "octomap") return v1::MAPPING_METHOD_OCTOMAP;
   if (text.empty() && allow_empty) return v1::MAPPING_METHOD_UNSPECIFIED;
-  return Status::InvalidArgument("--method: '" + text + "' is not sparse-mesh or octomap");
+  return Status::InvalidArgument("--method: " + QuoteForError(text) +
+                                 " is not sparse-mesh or octomap");
 }
 
 const char* MethodText(v1::MappingMethod method) {
@@ -198,7 +185,8 @@ int Start(const std::vector<std::string>& args) {
   } else if (pose_source == "none") {
     request.set_pose_source(v1::POSE_SOURCE_NONE);
   } else {
-    return Usage("--pose-source: '" + pose_source + "' is not ground-truth, localization or none");
+    return Usage("--pose-source: " + QuoteForError(pose_source) +
+                 " is not ground-truth, localization or none");
   }
   if (max_keyframes < 0 || features < 0) {
     return Usage("--max-keyframes/--features: must be >= 0");
@@ -209,11 +197,12 @@ int Start(const std::vector<std::string>& args) {
   request.mutable_keyframes()->set_features_per_keyframe(static_cast<uint32_t>(features));
   request.set_disable_dds_input(no_dds);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::MappingStatus status;
-  const grpc::Status rpc = stub->StartSession(&context, request, &status);
-  if (!rpc.ok()) return ReportRpcError(connection, "StartSession", rpc);
+  if (int rc = CallUnary(connection, "StartSession", [&](grpc::ClientContext* c) {
+        return stub->StartSession(c, request, &status);
+      })) {
+    return rc;
+  }
   PrintStatus(status);
   return 0;
 }
@@ -270,11 +259,12 @@ int Insert(const std::vector<std::string>& args) {
   t->mutable_orientation()->set_z(p[6]);
   request.set_force(force);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::InsertKeyframeResponse response;
-  const grpc::Status rpc = stub->InsertKeyframe(&context, request, &response);
-  if (!rpc.ok()) return ReportRpcError(connection, "InsertKeyframe", rpc);
+  if (int rc = CallUnary(connection, "InsertKeyframe", [&](grpc::ClientContext* c) {
+        return stub->InsertKeyframe(c, request, &response);
+      })) {
+    return rc;
+  }
   if (response.accepted()) {
     std::cout << "keyframe " << response.keyframe_index() << ": " << response.features()
               << " features, " << response.points_total() << " points in the map, "
@@ -314,14 +304,15 @@ int Build(const std::vector<std::string>& args) {
   } else if (unknown == "free") {
     request.set_unknown(v1::UNKNOWN_HANDLING_AS_FREE);
   } else {
-    return Usage("--unknown: '" + unknown + "' is not keep, occupied or free");
+    return Usage("--unknown: " + QuoteForError(unknown) + " is not keep, occupied or free");
   }
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::BuildMapResponse response;
-  const grpc::Status rpc = stub->BuildMap(&context, request, &response);
-  if (!rpc.ok()) return ReportRpcError(connection, "BuildMap", rpc);
+  if (int rc = CallUnary(connection, "BuildMap", [&](grpc::ClientContext* c) {
+        return stub->BuildMap(c, request, &response);
+      })) {
+    return rc;
+  }
   PrintBuild(response);
   return 0;
 }
@@ -340,38 +331,29 @@ int Occupancy(const std::vector<std::string>& args) {
   Result<v1::MappingMethod> parsed = ParseMethod(method, true);
   if (!parsed.ok()) return Usage(parsed.status().message());
   if (format != "bt" && format != "mavocc") {
-    return Usage("--format: '" + format + "' is not bt or mavocc");
+    return Usage("--format: " + QuoteForError(format) + " is not bt or mavocc");
   }
   v1::GetOccupancyRequest request;
   request.set_method(*parsed);
   request.set_format(format == "bt" ? v1::OCCUPANCY_FORMAT_OCTOMAP_BT
                                     : v1::OCCUPANCY_FORMAT_MAVOCC);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
-  auto reader = stub->GetOccupancy(&context, request);
-  std::ofstream out(out_path, std::ios::binary | std::ios::trunc);
-  if (!out) {
-    std::cerr << "mavctl: cannot write " << out_path << "\n";
-    return 1;
-  }
-  v1::OccupancyChunk chunk;
-  uint64_t bytes = 0;
+  std::string bytes;
   double resolution = 0;
-  while (reader->Read(&chunk)) {
-    if (bytes == 0) resolution = chunk.resolution_m();
-    out.write(chunk.chunk().data().data(),
-              static_cast<std::streamsize>(chunk.chunk().data().size()));
-    bytes += chunk.chunk().data().size();
+  if (int rc = DownloadChunks<v1::OccupancyChunk>(
+          connection, "GetOccupancy",
+          [&](grpc::ClientContext* c) { return stub->GetOccupancy(c, request); },
+          [](const v1::OccupancyChunk& m) -> const v1::FileChunk& { return m.chunk(); }, &bytes,
+          [&](const v1::OccupancyChunk& m) {
+            if (m.chunk().offset() == 0) resolution = m.resolution_m();
+          })) {
+    return rc;
   }
-  const grpc::Status rpc = reader->Finish();
-  if (!rpc.ok()) return ReportRpcError(connection, "GetOccupancy", rpc);
-  out.close();
-  if (!out) {
-    std::cerr << "mavctl: writing " << out_path << " failed\n";
+  if (Status s = WriteStringToFileAtomic(out_path, bytes); !s.ok()) {
+    std::cerr << "mavctl: " << s.message() << "\n";
     return 1;
   }
-  std::cout << "wrote " << out_path << " (" << bytes << " bytes, " << resolution << " m)\n";
+  std::cout << "wrote " << out_path << " (" << bytes.size() << " bytes, " << resolution << " m)\n";
   return 0;
 }
 
@@ -396,11 +378,12 @@ int Query(const std::vector<std::string>& args) {
   *request.add_boxes() = *box;
   request.set_unknown_is_collision(unknown_is_collision);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::QueryCollisionResponse response;
-  const grpc::Status rpc = stub->QueryCollision(&context, request, &response);
-  if (!rpc.ok()) return ReportRpcError(connection, "QueryCollision", rpc);
+  if (int rc = CallUnary(connection, "QueryCollision", [&](grpc::ClientContext* c) {
+        return stub->QueryCollision(c, request, &response);
+      })) {
+    return rc;
+  }
   switch (response.states(0)) {
     case v1::COLLISION_STATE_FREE:
       std::cout << "FREE\n";
@@ -429,28 +412,18 @@ int Mesh(const std::vector<std::string>& args) {
   v1::ExportMeshRequest request;
   request.set_format(ascii ? v1::MESH_FORMAT_PLY_ASCII : v1::MESH_FORMAT_PLY_BINARY);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
-  auto reader = stub->ExportMesh(&context, request);
-  std::ofstream out(out_path, std::ios::binary | std::ios::trunc);
-  if (!out) {
-    std::cerr << "mavctl: cannot write " << out_path << "\n";
+  std::string bytes;
+  if (int rc = DownloadChunks<v1::FileChunk>(
+          connection, "ExportMesh",
+          [&](grpc::ClientContext* c) { return stub->ExportMesh(c, request); },
+          [](const v1::FileChunk& m) -> const v1::FileChunk& { return m; }, &bytes)) {
+    return rc;
+  }
+  if (Status s = WriteStringToFileAtomic(out_path, bytes); !s.ok()) {
+    std::cerr << "mavctl: " << s.message() << "\n";
     return 1;
   }
-  v1::FileChunk chunk;
-  uint64_t bytes = 0;
-  while (reader->Read(&chunk)) {
-    out.write(chunk.data().data(), static_cast<std::streamsize>(chunk.data().size()));
-    bytes += chunk.data().size();
-  }
-  const grpc::Status rpc = reader->Finish();
-  if (!rpc.ok()) return ReportRpcError(connection, "ExportMesh", rpc);
-  out.close();
-  if (!out) {
-    std::cerr << "mavctl: writing " << out_path << " failed\n";
-    return 1;
-  }
-  std::cout << "wrote " << out_path << " (" << bytes << " bytes)\n";
+  std::cout << "wrote " << out_path << " (" << bytes.size() << " bytes)\n";
   return 0;
 }
 
@@ -461,13 +434,14 @@ int StatusOrReset(const std::string& sub, const std::vector<std::string>& args) 
   AddConnectionFlags(&flags, &connection);
   ParseOrExit(&flags, &connection, args);
   auto stub = Connect(connection);
-  grpc::ClientContext context;
-  SetDeadline(connection, &context);
   v1::MappingStatus status;
-  const grpc::Status rpc = sub == "reset"
-                               ? stub->Reset(&context, v1::MappingResetRequest(), &status)
-                               : stub->GetStatus(&context, v1::MappingGetStatusRequest(), &status);
-  if (!rpc.ok()) return ReportRpcError(connection, sub == "reset" ? "Reset" : "GetStatus", rpc);
+  if (int rc = CallUnary(
+          connection, sub == "reset" ? "Reset" : "GetStatus", [&](grpc::ClientContext* c) {
+            return sub == "reset" ? stub->Reset(c, v1::MappingResetRequest(), &status)
+                                  : stub->GetStatus(c, v1::MappingGetStatusRequest(), &status);
+          })) {
+    return rc;
+  }
   PrintStatus(status);
   return 0;
 }

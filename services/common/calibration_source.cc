@@ -9,9 +9,11 @@
 
 #include "mav/v1/simulator.grpc.pb.h"
 
+#include "mav/common/text.h"
 #include "mav/dataset/euroc.h"
+#include "services/common/grpc_status.h"
 
-namespace mav::services {
+namespace mav::service_common {
 namespace {
 
 Result<RigCalibration> CalibrationFromEuroc(const std::string& directory) {
@@ -20,7 +22,7 @@ Result<RigCalibration> CalibrationFromEuroc(const std::string& directory) {
   namespace fs = std::filesystem;
   std::error_code error;
   if (!fs::is_directory(directory, error)) {
-    return Status::NotFound(field + ": '" + directory + "' is not a directory");
+    return Status::NotFound(field + ": " + QuoteForError(directory) + " is not a directory");
   }
   // The directory holding mav0/, or mav0/ itself.
   fs::path mav0 = fs::path(directory) / "mav0";
@@ -62,17 +64,15 @@ Result<RigCalibration> CalibrationFromSimulator(const std::string& address, int6
   const grpc::Status status =
       stub->GetCalibration(&context, v1::GetCalibrationRequest(), &response);
   if (!status.ok()) {
-    const std::string text =
-        field + ": GetCalibration at " + address + ": " + status.error_message();
-    switch (status.error_code()) {
-      case grpc::StatusCode::FAILED_PRECONDITION:
-        return Status::FailedPrecondition(text);
-      case grpc::StatusCode::INVALID_ARGUMENT:
-        return Status::InvalidArgument(text);
-      default:
-        // Unreachable, timed out, shutting down, or not a simulator at all.
-        return Status::Unavailable(text);
+    const Status failed =
+        OutgoingCallStatus(status, field + ": GetCalibration at " + address, "a mav-simulator");
+    // FAILED_PRECONDITION (nothing loaded) and INVALID_ARGUMENT pass through; for the caller
+    // everything else (unreachable, timed out, not a simulator) means the source is unavailable.
+    if (failed.code() == StatusCode::kFailedPrecondition ||
+        failed.code() == StatusCode::kInvalidArgument) {
+      return failed;
     }
+    return Status::Unavailable(failed.message());
   }
   return CalibrationFromProto(response.stereo(), field + " (GetCalibration.stereo)");
 }
@@ -94,4 +94,29 @@ Result<RigCalibration> ResolveCalibration(const v1::CalibrationSource& source, i
       "calibration: not set; give calibration, euroc_directory or simulator_address");
 }
 
-}  // namespace mav::services
+void CalibrationFlags::Register(FlagParser* flags, const std::string& for_flag) {
+  flags->AddString("euroc", &euroc, "calibration for " + for_flag + ": an EuRoC directory");
+  flags->AddString("simulator", &simulator,
+                   "calibration for " + for_flag + ": a mav-simulator's host:port");
+}
+
+Result<std::optional<v1::CalibrationSource>> CalibrationFlags::Source(
+    bool wanted, const std::string& for_flag) const {
+  const bool given = !euroc.empty() || !simulator.empty();
+  if (!wanted) {
+    if (given) return Status::InvalidArgument("--euroc/--simulator only go with " + for_flag);
+    return std::optional<v1::CalibrationSource>();
+  }
+  if (euroc.empty() == simulator.empty()) {
+    return Status::InvalidArgument(for_flag + " needs exactly one of --euroc or --simulator");
+  }
+  v1::CalibrationSource source;
+  if (!euroc.empty()) {
+    source.set_euroc_directory(euroc);
+  } else {
+    source.set_simulator_address(simulator);
+  }
+  return std::optional<v1::CalibrationSource>(std::move(source));
+}
+
+}  // namespace mav::service_common

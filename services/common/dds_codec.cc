@@ -5,7 +5,7 @@
 
 #include <zlib.h>
 
-namespace mav::services {
+namespace mav::service_common {
 
 uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
                      size_t right_size) {
@@ -39,8 +39,8 @@ Status CheckStereoFrame(const mav_dds_StereoFrame& frame) {
   return Status::Ok();
 }
 
-StereoImages StereoFromDds(const mav_dds_StereoFrame& frame) {
-  StereoImages out;
+dataset::StereoPair StereoFromDds(const mav_dds_StereoFrame& frame) {
+  dataset::StereoPair out;
   out.t_ns = frame.t_ns;
   out.rectified = frame.rectified;
   const int rows = static_cast<int>(frame.height);
@@ -56,4 +56,21 @@ void CopyId(const char* id, char (&out)[33]) {
   out[sizeof(out) - 1] = '\0';
 }
 
-}  // namespace mav::services
+mav_dds_PoseWithCovariance PoseToDds(uint64_t sequence, int64_t t_ns, int64_t publish_t_ns,
+                                     const char* child_frame_id,
+                                     const geometry::SE3& T_world_child) {
+  mav_dds_PoseWithCovariance out{};
+  out.vehicle_id = mav_dds_kDefaultVehicleId;
+  out.sequence_number = sequence;
+  out.t_ns = t_ns;
+  out.publish_t_ns = publish_t_ns;
+  CopyId("world", out.frame_id);
+  CopyId(child_frame_id, out.child_frame_id);
+  const Eigen::Vector3d& t = T_world_child.Translation();
+  out.position = {t.x(), t.y(), t.z()};
+  const Eigen::Quaterniond& q = T_world_child.Rotation();
+  out.orientation = {q.w(), q.x(), q.y(), q.z()};
+  return out;
+}
+
+}  // namespace mav::service_common

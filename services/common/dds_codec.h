@@ -6,11 +6,12 @@
 #include <cstdint>
 
 #include "mav_sensors.h"
+#include "mav_state.h"
 
 #include "mav/common/status.h"
 #include "services/common/proto_codec.h"
 
-namespace mav::services {
+namespace mav::service_common {
 
 // CRC-32 (IEEE 802.3, zlib's crc32) over `left` followed by `right`, as the IDL specifies.
 uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right,
@@ -21,9 +22,15 @@ uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right
 Status CheckStereoFrame(const mav_dds_StereoFrame& frame);
 
 // A checked frame's pixels, copied out of the (loaned) sample buffers.
-StereoImages StereoFromDds(const mav_dds_StereoFrame& frame);
+dataset::StereoPair StereoFromDds(const mav_dds_StereoFrame& frame);
 
 // Copies a NUL-terminated id into an IDL string<32> field, truncating if needed.
 void CopyId(const char* id, char (&out)[33]);
 
-}  // namespace mav::services
+// A pose sample T_world_<child_frame_id> at t_ns for the default vehicle (frame_id "world");
+// covariance, tracking state and statistics are left zero for the caller.
+mav_dds_PoseWithCovariance PoseToDds(uint64_t sequence, int64_t t_ns, int64_t publish_t_ns,
+                                     const char* child_frame_id,
+                                     const geometry::SE3& T_world_child);
+
+}  // namespace mav::service_common

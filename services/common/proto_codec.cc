@@ -5,8 +5,7 @@
 #include <sstream>
 #include <tuple>
 
-namespace mav::services {
-namespace {
+namespace mav::service_common {
 
 std::string Number(double v) {
   std::ostringstream out;
@@ -14,7 +13,14 @@ std::string Number(double v) {
   return out.str();
 }
 
-}  // namespace
+void ToProto(const RuntimeStats& stats, v1::RuntimeStats* out) {
+  out->set_count(stats.count);
+  out->set_mean_ms(stats.mean_ms);
+  out->set_median_ms(stats.median_ms);
+  out->set_p95_ms(stats.p95_ms);
+  out->set_p99_ms(stats.p99_ms);
+  out->set_max_ms(stats.max_ms);
+}
 
 void ToProto(const geometry::SE3& pose, v1::Pose* out) {
   const Eigen::Vector3d& t = pose.Translation();
@@ -120,8 +126,8 @@ Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
   return out;
 }
 
-Result<StereoImages> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
-  StereoImages out;
+Result<dataset::StereoPair> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
+  dataset::StereoPair out;
   out.t_ns = pair.t_ns();
   out.rectified = pair.rectified();
   for (const auto& [name, image, mat] :
@@ -157,4 +163,4 @@ Result<StereoImages> StereoFromProto(const v1::StereoPair& pair, const std::stri
   return out;
 }
 
-}  // namespace mav::services
+}  // namespace mav::service_common

@@ -10,12 +10,18 @@
 
 #include "mav/camera/pinhole.h"
 #include "mav/camera/stereo.h"
+#include "mav/common/stats.h"
 #include "mav/common/status.h"
+#include "mav/dataset/stereo_pair.h"
 #include "mav/geometry/se3.h"
 
-namespace mav::services {
+namespace mav::service_common {
+
+// The shortest text of a number for messages ("0.05", "1e+15").
+std::string Number(double v);
 
 void ToProto(const geometry::SE3& pose, v1::Pose* out);
+void ToProto(const RuntimeStats& stats, v1::RuntimeStats* out);
 void ToProto(const camera::PinholeRadTan& camera, v1::CameraIntrinsics* out);
 
 // A Pose validated as common.proto says: finite position, quaternion norm within 1e-3 of 1
@@ -39,12 +45,6 @@ Result<RigCalibration> CalibrationFromProto(const v1::StereoCalibration& proto,
 // A StereoPair's pixels, copied. InvalidArgument naming "<field>.left" etc.: empty image,
 // encoding not MONO8, data size != width*height, left/right sizes differ. Sizes against a
 // calibration are the caller's to check.
-struct StereoImages {
-  int64_t t_ns = 0;
-  bool rectified = false;
-  cv::Mat left;
-  cv::Mat right;
-};
-Result<StereoImages> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
+Result<dataset::StereoPair> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
 
-}  // namespace mav::services
+}  // namespace mav::service_common

@@ -7,15 +7,13 @@
 #include <sstream>
 #include <tuple>
 
+#include "mav/common/text.h"
+
 namespace mav::localization_service {
 
-namespace {
+using service_common::Number;
 
-std::string Number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+namespace {
 
 // An unsigned option: 0 keeps `*target`, otherwise it must lie in [lo, hi].
 Status UintOption(uint32_t value, uint32_t lo, uint32_t hi, const std::string& field, int* target) {
@@ -148,23 +146,24 @@ v1::LocalizationMethod ToProto(Method method) {
 
 Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& request) {
   LocalizerConfig config;
-  MAV_ASSIGN_OR_RETURN(config.method, MethodFromProto(request.method()));
-  if (config.method == Method::kDense) {
-    MAV_RETURN_IF_ERROR(DenseFromProto(request.dense(), &config.dense));
+  localization::RigOdometryOptions& o = config.odometry;
+  MAV_ASSIGN_OR_RETURN(o.method, MethodFromProto(request.method()));
+  if (o.method == Method::kDense) {
+    MAV_RETURN_IF_ERROR(DenseFromProto(request.dense(), &o.odometry.dense));
   } else {
-    MAV_RETURN_IF_ERROR(SparseFromProto(request.sparse(), config.method, &config.sparse));
+    MAV_RETURN_IF_ERROR(SparseFromProto(request.sparse(), o.method, &o.odometry.sparse));
   }
   if (request.has_initial_pose()) {
-    MAV_ASSIGN_OR_RETURN(config.T_world_body0,
-                         PoseFromProto(request.initial_pose(), "initial_pose"));
+    MAV_ASSIGN_OR_RETURN(o.T_world_body0, PoseFromProto(request.initial_pose(), "initial_pose"));
   }
   const std::string& frame = request.output_frame();
   if (frame.empty() || frame == "body") {
-    config.output_frame = OutputFrame::kBody;
+    o.output_frame = OutputFrame::kBody;
   } else if (frame == "cam0") {
-    config.output_frame = OutputFrame::kCam0;
+    o.output_frame = OutputFrame::kCam0;
   } else {
-    return Status::InvalidArgument("output_frame: '" + frame + "' is not body or cam0");
+    return Status::InvalidArgument("output_frame: " + QuoteForError(frame) +
+                                   " is not body or cam0");
   }
   if (request.queue_length() > 100) {
     return Status::InvalidArgument("queue_length: must be <= 100, got " +
@@ -174,17 +173,7 @@ Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& 
   return config;
 }
 
-Result<StereoInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
-  MAV_ASSIGN_OR_RETURN(services::StereoImages images, services::StereoFromProto(pair, field));
-  StereoInput out;
-  out.t_ns = images.t_ns;
-  out.rectified = images.rectified;
-  out.left = std::move(images.left);
-  out.right = std::move(images.right);
-  return out;
-}
-
-void ToProto(const PoseOutput& pose, v1::PoseWithCovariance* out) {
+void ToProto(const RigPose& pose, v1::PoseWithCovariance* out) {
   out->set_t_ns(pose.t_ns);
   ToProto(pose.T_world_out, out->mutable_pose());
   out->clear_covariance();
@@ -207,7 +196,7 @@ v1::LocalizationServiceState ToProto(LocalizerState state) {
   return v1::LOCALIZATION_SERVICE_STATE_UNSPECIFIED;
 }
 
-void ToProto(const PoseOutput& pose, v1::ProcessStereoPairResponse* out) {
+void ToProto(const RigPose& pose, v1::ProcessStereoPairResponse* out) {
   ToProto(pose, out->mutable_pose());
   out->set_tracking_state(ToProto(pose.state));
   out->set_lost_reason(pose.lost_reason);
@@ -225,18 +214,10 @@ void ToProto(const PoseOutput& pose, v1::ProcessStereoPairResponse* out) {
   ToProto(pose.T_prev_cur, out->mutable_delta());
 }
 
-void ToProto(const PoseOutput& pose, v1::TrajectoryPoint* out) {
+void ToProto(const RigPose& pose, v1::TrajectoryPoint* out) {
   ToProto(pose, out->mutable_pose());
   out->set_tracking_state(ToProto(pose.state));
   out->set_keyframe(pose.keyframe);
-}
-
-void ToProto(const RuntimeSummary& stats, v1::RuntimeStats* out) {
-  out->set_count(stats.count);
-  out->set_mean_ms(stats.mean_ms);
-  out->set_median_ms(stats.median_ms);
-  out->set_p95_ms(stats.p95_ms);
-  out->set_max_ms(stats.max_ms);
 }
 
 void ToProto(const camera::StereoCalibration& calibration, bool rectified,
@@ -252,9 +233,10 @@ void ToProto(const camera::StereoCalibration& calibration, bool rectified,
 }
 
 void ToProto(const LocalizerConfig& config, v1::LocalizationConfigureRequest* out) {
-  out->set_method(ToProto(config.method));
-  if (config.method == Method::kDense) {
-    const localization::DenseVoOptions& d = config.dense;
+  const localization::RigOdometryOptions& c = config.odometry;
+  out->set_method(ToProto(c.method));
+  if (c.method == Method::kDense) {
+    const localization::DenseVoOptions& d = c.odometry.dense;
     v1::DenseVoOptions* o = out->mutable_dense();
     o->set_pyramid_levels(static_cast<uint32_t>(d.num_levels));
     o->set_max_iterations_per_level(static_cast<uint32_t>(d.max_iterations_per_level));
@@ -265,7 +247,7 @@ void ToProto(const LocalizerConfig& config, v1::LocalizationConfigureRequest* ou
     o->set_keyframe_translation_m(d.keyframe_max_translation_m);
     o->set_huber_delta(d.loss == localization::DenseRobustLoss::kHuber ? d.huber_k : 0.0);
   } else {
-    const localization::SparseVoOptions& s = config.sparse;
+    const localization::SparseVoOptions& s = c.odometry.sparse;
     v1::SparseVoOptions* o = out->mutable_sparse();
     o->set_half_resolution(s.features.half_resolution);
     o->set_nms_radius_px(static_cast<uint32_t>(s.features.nms_radius));
@@ -274,22 +256,21 @@ void ToProto(const LocalizerConfig& config, v1::LocalizationConfigureRequest* ou
     o->set_bucket_height_px(static_cast<uint32_t>(s.matcher.bucket_height_px));
     o->set_max_features_per_bucket(static_cast<uint32_t>(s.matcher.bucket_max_matches));
     o->set_ransac_iterations(static_cast<uint32_t>(s.motion.ransac_iterations));
-    o->set_inlier_threshold_px(config.method == Method::kSparsePixel
-                                   ? s.pixel_inlier_threshold_px
-                                   : s.subpixel_inlier_threshold_px);
+    o->set_inlier_threshold_px(c.method == Method::kSparsePixel ? s.pixel_inlier_threshold_px
+                                                                : s.subpixel_inlier_threshold_px);
     o->set_min_inliers(static_cast<uint32_t>(s.motion.min_inliers));
   }
-  ToProto(config.calibration, config.calibration_rectified,
+  ToProto(c.calibration, c.calibration_rectified,
           out->mutable_calibration()->mutable_calibration());
-  ToProto(config.T_world_body0, out->mutable_initial_pose());
-  out->set_output_frame(OutputFrameName(config.output_frame));
+  ToProto(c.T_world_body0, out->mutable_initial_pose());
+  out->set_output_frame(localization::OutputFrameName(c.output_frame));
   out->set_queue_length(static_cast<uint32_t>(config.queue_length));
 }
 
 void ToProto(const LocalizerStatus& status, bool dds_input, v1::LocalizationStatus* out) {
   out->set_state(ToProto(status.state));
   if (status.config.has_value()) {
-    out->set_method(ToProto(status.config->method));
+    out->set_method(ToProto(status.config->odometry.method));
     ToProto(*status.config, out->mutable_config());
     out->mutable_config()->set_disable_dds_input(!dds_input);
   }

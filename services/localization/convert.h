@@ -1,5 +1,5 @@
 #pragma once
-// mav.v1 localization messages <-> the localization service's domain types (pipeline.h).
+// mav.v1 localization messages <-> the localization service's domain types (localizer.h).
 // Validation of request fields happens here, with messages that start with the field path as the
 // request spells it ("sparse.ransac_iterations: ...", "stereo.left.data: ...").
 
@@ -12,7 +12,7 @@
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
 #include "mav/geometry/se3.h"
-#include "services/localization/pipeline.h"
+#include "services/localization/localizer.h"
 
 namespace mav::localization_service {
 
@@ -25,19 +25,15 @@ v1::LocalizationMethod ToProto(Method method);
 // initial_pose, output_frame, queue_length. InvalidArgument naming the field.
 Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& request);
 
-// A StereoPair as a StereoInput (pixels copied). InvalidArgument naming "<field>.left" etc.: empty
-// image, encoding not MONO8, data size != width*height, left/right sizes differ. The size against
-// the calibration and the time order are checked by the Localizer.
-Result<StereoInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
+using service_common::StereoFromProto;  // pixels copied; sizes checked by the Localizer
 
-using services::CalibrationFromProto;
-using services::PoseFromProto;
-using services::RigCalibration;
-using services::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics
-void ToProto(const PoseOutput& pose, v1::PoseWithCovariance* out);
-void ToProto(const PoseOutput& pose, v1::ProcessStereoPairResponse* out);
-void ToProto(const PoseOutput& pose, v1::TrajectoryPoint* out);
-void ToProto(const RuntimeSummary& stats, v1::RuntimeStats* out);
+using service_common::CalibrationFromProto;
+using service_common::PoseFromProto;
+using service_common::RigCalibration;
+using service_common::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics
+void ToProto(const RigPose& pose, v1::PoseWithCovariance* out);
+void ToProto(const RigPose& pose, v1::ProcessStereoPairResponse* out);
+void ToProto(const RigPose& pose, v1::TrajectoryPoint* out);
 void ToProto(const camera::StereoCalibration& calibration, bool rectified,
              v1::StereoCalibration* out);
 // The effective configuration: library defaults filled in, the calibration inline.

@@ -4,40 +4,16 @@
 
 #include "mav/common/log.h"
 #include "mav/common/time.h"
+#include "services/common/dds_topics.h"
 
 namespace mav::localization_service {
 
-using services::CopyId;
+using service_common::CopyId;
 
-namespace {
-
-constexpr int64_t kReaderPollNs = 100'000'000;
-
-}  // namespace
-
-StereoInput FromDds(const mav_dds_StereoFrame& frame) {
-  services::StereoImages images = services::StereoFromDds(frame);
-  StereoInput out;
-  out.t_ns = images.t_ns;
-  out.rectified = images.rectified;
-  out.left = std::move(images.left);
-  out.right = std::move(images.right);
-  return out;
-}
-
-mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const PoseOutput& pose, OutputFrame frame,
+mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const RigPose& pose, OutputFrame frame,
                                  int64_t publish_t_ns) {
-  mav_dds_PoseWithCovariance out{};
-  out.vehicle_id = mav_dds_kDefaultVehicleId;
-  out.sequence_number = sequence;
-  out.t_ns = pose.t_ns;
-  out.publish_t_ns = publish_t_ns;
-  CopyId("world", out.frame_id);
-  CopyId(OutputFrameName(frame), out.child_frame_id);
-  const Eigen::Vector3d& t = pose.T_world_out.Translation();
-  out.position = {t.x(), t.y(), t.z()};
-  const Eigen::Quaterniond& q = pose.T_world_out.Rotation();
-  out.orientation = {q.w(), q.x(), q.y(), q.z()};
+  mav_dds_PoseWithCovariance out = service_common::PoseToDds(
+      sequence, pose.t_ns, publish_t_ns, localization::OutputFrameName(frame), pose.T_world_out);
   for (int i = 0; i < 36; ++i) out.covariance[i] = pose.covariance[i];
   out.tracking_state = static_cast<mav_dds_TrackingState>(static_cast<int>(pose.state));
   out.inliers = pose.inliers;
@@ -50,13 +26,12 @@ mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const PoseOutput& pose, Outp
 Result<std::unique_ptr<DdsIo>> DdsIo::Create(const transport::DdsOptions& options) {
   using transport::Qos;
   MAV_ASSIGN_OR_RETURN(transport::Participant participant, transport::Participant::Create(options));
-  MAV_ASSIGN_OR_RETURN(
-      StereoTopic stereo_topic,
-      StereoTopic::Create(participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
-  MAV_ASSIGN_OR_RETURN(ImuTopic imu_topic, ImuTopic::Create(participant, transport::kImuTopic,
-                                                            &mav_dds_ImuSample_desc));
-  MAV_ASSIGN_OR_RETURN(PoseTopic pose_topic, PoseTopic::Create(participant, transport::kPoseTopic,
-                                                               &mav_dds_PoseWithCovariance_desc));
+  MAV_ASSIGN_OR_RETURN(StereoTopic stereo_topic,
+                       service_common::OpenTopic<mav_dds_StereoFrame>(participant));
+  MAV_ASSIGN_OR_RETURN(ImuTopic imu_topic,
+                       service_common::OpenTopic<mav_dds_ImuSample>(participant));
+  MAV_ASSIGN_OR_RETURN(PoseTopic pose_topic,
+                       service_common::OpenTopic<mav_dds_PoseWithCovariance>(participant));
   MAV_ASSIGN_OR_RETURN(auto pose_writer, transport::Writer<mav_dds_PoseWithCovariance>::Create(
                                              participant, pose_topic, Qos::State()));
   return std::unique_ptr<DdsIo>(new DdsIo(std::move(participant), std::move(stereo_topic),
@@ -77,7 +52,7 @@ DdsIo::~DdsIo() {
   StopReaderLocked();
 }
 
-Status DdsIo::PublishPose(const PoseOutput& pose, OutputFrame frame) {
+Status DdsIo::PublishPose(const RigPose& pose, OutputFrame frame) {
   const uint64_t sequence = pose_sequence_.fetch_add(1);
   return pose_writer_.Write(ToDds(sequence, pose, frame, WallNowNs()));
 }
@@ -93,10 +68,7 @@ bool DdsIo::stereo_input() const {
 }
 
 void DdsIo::StopReaderLocked() {
-  if (reader_thread_.joinable()) {
-    stop_reader_ = true;
-    reader_thread_.join();
-  }
+  read_loop_.reset();  // joins the loop before its readers go
   stereo_reader_.reset();
   imu_reader_.reset();
 }
@@ -120,48 +92,28 @@ Status DdsIo::SetStereoInput(bool enabled) {
                                      participant_, imu_topic_, Qos::HighRate()));
   stereo_reader_.emplace(std::move(stereo));
   imu_reader_.emplace(std::move(imu));
-  stop_reader_ = false;
-  reader_thread_ = std::thread([this] { ReadLoop(); });
+  read_loop_.emplace("localization input");
+  // IMU: counted (the VO is vision-only); its history (2 s) outlasts the poll period.
+  read_loop_->AddReader<mav_dds_ImuSample>(&*imu_reader_,
+                                           [this](const mav_dds_ImuSample&) { ++imu_received_; });
+  read_loop_->SetWakeReader<mav_dds_StereoFrame>(
+      &*stereo_reader_, [this](const mav_dds_StereoFrame& frame) { OnFrame(frame); }, 4);
+  MAV_RETURN_IF_ERROR(read_loop_->Start());
   MAV_LOG(kInfo) << "DDS input on: " << transport::kStereoTopic << ", " << transport::kImuTopic;
   return Status::Ok();
 }
 
-// The readers are not replaced while this thread runs (SetStereoInput joins it first).
-void DdsIo::ReadLoop() {
-  while (!stop_reader_) {
-    Result<bool> ready = stereo_reader_->WaitForData(kReaderPollNs);
-    if (!ready.ok()) {
-      MAV_LOG(kWarning) << ready.status().ToString();
-      continue;
-    }
-    // IMU: counted (the VO is vision-only); the history (2 s) outlasts the poll period.
-    Result<transport::LoanedSamples<mav_dds_ImuSample>> imu = imu_reader_->Take(256);
-    if (imu.ok()) {
-      for (int32_t i = 0; i < imu->size(); ++i) {
-        if (imu->valid(i)) ++imu_received_;
-      }
-    }
-    if (!*ready) continue;
-    Result<transport::LoanedSamples<mav_dds_StereoFrame>> frames = stereo_reader_->Take(4);
-    if (!frames.ok()) {
-      MAV_LOG(kWarning) << frames.status().ToString();
-      continue;
-    }
-    for (int32_t i = 0; i < frames->size(); ++i) {
-      if (!frames->valid(i)) continue;
-      ++frames_received_;
-      const mav_dds_StereoFrame& frame = (*frames)[i];
-      const Status check = CheckStereoFrame(frame);
-      if (!check.ok()) {
-        MAV_LOG(kWarning) << "rejected: " << check.message();
-        localizer_->CountRejected();
-        continue;
-      }
-      const SubmitOutcome outcome = localizer_->SubmitLive(FromDds(frame));
-      if (outcome == SubmitOutcome::kQueuedDroppedOldest || outcome == SubmitOutcome::kDropped) {
-        MAV_LOG(kDebug) << "queue full: dropped a frame";
-      }
-    }
+void DdsIo::OnFrame(const mav_dds_StereoFrame& frame) {
+  ++frames_received_;
+  const Status check = CheckStereoFrame(frame);
+  if (!check.ok()) {
+    MAV_LOG(kWarning) << "rejected: " << check.message();
+    localizer_->CountRejected();
+    return;
+  }
+  const Status queued = localizer_->SubmitLive(StereoInput(service_common::StereoFromDds(frame)));
+  if (!queued.ok()) {
+    MAV_LOG(kDebug) << "live frame not queued: " << queued.message();
   }
 }
 

@@ -8,9 +8,9 @@
 // disable_dds_input): an unconfigured service is no subscriber, so a simulator waiting for its
 // subscribers does not count it.
 // Life cycle: create the DdsIo, then the Localizer with the DdsIo as its PoseSink, then Attach();
-// on shutdown switch the input off before destroying the Localizer. A reader thread waits for
-// frames, checks them (size, CRC-32), copies the pixels and hands them to Localizer::SubmitLive,
-// which never blocks (drop-oldest).
+// on shutdown switch the input off before destroying the Localizer. The read loop
+// (transport::DdsReadLoop) waits for frames, checks them (size, CRC-32), copies the pixels and
+// hands them to Localizer::SubmitLive, which never blocks (drop-oldest).
 
 #include <atomic>
 #include <cstddef>
@@ -18,25 +18,22 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <thread>
 
 #include "mav_sensors.h"
 #include "mav_state.h"
 
 #include "mav/transport/dds.h"
+#include "mav/transport/dds_read_loop.h"
 #include "services/common/dds_codec.h"
-#include "services/localization/pipeline.h"
+#include "services/localization/localizer.h"
 
 namespace mav::localization_service {
 
-using services::CheckStereoFrame;
-using services::StereoCrc32;
-
-// Copies a checked frame's pixels into a StereoInput.
-StereoInput FromDds(const mav_dds_StereoFrame& frame);
+using service_common::CheckStereoFrame;
+using service_common::StereoCrc32;
 
 // The pose sample for `pose` (frame_id "world", child_frame_id from `frame`).
-mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const PoseOutput& pose, OutputFrame frame,
+mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const RigPose& pose, OutputFrame frame,
                                  int64_t publish_t_ns);
 
 // Switches the live stereo input on and off (DDS in production; absent in contract tests).
@@ -56,7 +53,7 @@ class DdsIo : public PoseSink, public InputControl {
   // stop the input (SetStereoInput(false)) before the localizer is destroyed.
   void Attach(Localizer* localizer) { localizer_ = localizer; }
 
-  Status PublishPose(const PoseOutput& pose, OutputFrame frame) override;
+  Status PublishPose(const RigPose& pose, OutputFrame frame) override;
   Status SetStereoInput(bool enabled) override;
   bool stereo_input() const override;
 
@@ -72,7 +69,7 @@ class DdsIo : public PoseSink, public InputControl {
   using PoseTopic = transport::Topic<mav_dds_PoseWithCovariance>;
   DdsIo(transport::Participant participant, StereoTopic stereo_topic, ImuTopic imu_topic,
         PoseTopic pose_topic, transport::Writer<mav_dds_PoseWithCovariance> pose_writer);
-  void ReadLoop();
+  void OnFrame(const mav_dds_StereoFrame& frame);
   void StopReaderLocked();
 
   Localizer* localizer_ = nullptr;
@@ -86,8 +83,7 @@ class DdsIo : public PoseSink, public InputControl {
   mutable std::mutex control_mutex_;  // serialises SetStereoInput
   std::optional<transport::Reader<mav_dds_StereoFrame>> stereo_reader_;
   std::optional<transport::Reader<mav_dds_ImuSample>> imu_reader_;
-  std::thread reader_thread_;
-  std::atomic<bool> stop_reader_{false};
+  std::optional<transport::DdsReadLoop> read_loop_;
 
   std::atomic<uint64_t> frames_received_{0};
   std::atomic<uint64_t> imu_received_{0};

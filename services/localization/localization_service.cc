@@ -12,12 +12,15 @@
 #include "mav/common/log.h"
 #include "mav/dataset/euroc.h"
 #include "mav/transport/grpc_server.h"
+#include "services/common/grpc_status.h"
 
 namespace mav::localization_service {
 
 namespace {
 
-using transport::ToGrpcStatus;
+using service_common::CallTermination;
+using service_common::CheckDeadline;
+using service_common::ToGrpcStatus;
 
 constexpr uint32_t kDefaultPosesPerChunk = 10000;
 constexpr uint32_t kMaxPosesPerChunk = 100000;
@@ -42,6 +45,7 @@ void LocalizationService::FillStatus(v1::LocalizationStatus* response) {
 }
 
 grpc::Status LocalizationService::ApplyConfigure(const v1::LocalizationConfigureRequest& request,
+                                                 const Termination& deadline,
                                                  v1::LocalizationStatus* response) {
   Result<LocalizerConfig> config = ConfigFromProto(request);
   if (!config.ok()) return ToGrpcStatus(config.status());
@@ -51,10 +55,9 @@ grpc::Status LocalizationService::ApplyConfigure(const v1::LocalizationConfigure
     MAV_LOG(kWarning) << "Configure: " << rig.status().ToString();
     return ToGrpcStatus(rig.status());
   }
-  config->calibration = rig->calibration;
-  config->calibration_rectified = rig->rectified;
-  const Status configured = localizer_->Configure(*config);
-  if (!configured.ok()) return ToGrpcStatus(configured);
+  config->odometry.calibration = rig->calibration;
+  config->odometry.calibration_rectified = rig->rectified;
+  if (Status s = localizer_->Configure(*config, deadline); !s.ok()) return ToGrpcStatus(s);
   if (input_ != nullptr) {
     const Status input = input_->SetStereoInput(!request.disable_dds_input());
     if (!input.ok()) return ToGrpcStatus(input);
@@ -63,13 +66,14 @@ grpc::Status LocalizationService::ApplyConfigure(const v1::LocalizationConfigure
   return grpc::Status::OK;
 }
 
-grpc::Status LocalizationService::Configure(grpc::ServerContext*,
+grpc::Status LocalizationService::Configure(grpc::ServerContext* context,
                                             const v1::LocalizationConfigureRequest* request,
                                             v1::LocalizationStatus* response) {
-  return ApplyConfigure(*request, response);
+  if (Status s = CheckDeadline(*context, "Configure"); !s.ok()) return ToGrpcStatus(s);
+  return ApplyConfigure(*request, CallTermination(*context), response);
 }
 
-grpc::Status LocalizationService::Reset(grpc::ServerContext*,
+grpc::Status LocalizationService::Reset(grpc::ServerContext* context,
                                         const v1::LocalizationResetRequest* request,
                                         v1::LocalizationStatus* response) {
   std::optional<geometry::SE3> initial;
@@ -78,7 +82,12 @@ grpc::Status LocalizationService::Reset(grpc::ServerContext*,
     if (!pose.ok()) return ToGrpcStatus(pose.status());
     initial = *pose;
   }
-  localizer_->Reset(initial);
+  if (Status s = CheckDeadline(*context, "Reset"); !s.ok()) return ToGrpcStatus(s);
+  if (localizer_->configured()) {
+    if (Status s = localizer_->Reset(initial, CallTermination(*context)); !s.ok()) {
+      return ToGrpcStatus(s);
+    }
+  }
   FillStatus(response);
   return grpc::Status::OK;
 }
@@ -106,16 +115,18 @@ grpc::Status LocalizationService::GetTrajectory(grpc::ServerContext* context,
   }
   const size_t per_chunk =
       request->max_poses_per_chunk() == 0 ? kDefaultPosesPerChunk : request->max_poses_per_chunk();
-  const std::vector<PoseOutput> poses =
+  const std::vector<RigPose> poses =
       localizer_->Trajectory(request->start_t_ns(), request->end_t_ns());
   size_t next = 0;
   do {
-    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
+    if (context->IsCancelled()) return ToGrpcStatus(Status::Cancelled("GetTrajectory: cancelled"));
     v1::TrajectoryChunk chunk;
     const size_t end = std::min(poses.size(), next + per_chunk);
     for (; next < end; ++next) ToProto(poses[next], chunk.add_points());
     chunk.set_last(next == poses.size());
-    if (!writer->Write(chunk)) return grpc::Status(grpc::StatusCode::CANCELLED, "client went away");
+    if (!writer->Write(chunk)) {
+      return ToGrpcStatus(Status::Cancelled("GetTrajectory: the client went away"));
+    }
   } while (next < poses.size());
   return grpc::Status::OK;
 }
@@ -129,30 +140,15 @@ grpc::Status LocalizationService::ProcessStereoPair(grpc::ServerContext* context
   if (!request->has_stereo()) {
     return ToGrpcStatus(Status::InvalidArgument("stereo: not set"));
   }
-  Result<StereoInput> input = StereoFromProto(request->stereo(), "stereo");
-  if (!input.ok()) return ToGrpcStatus(input.status());
-  input->publish = !request->skip_publish();
-
-  int64_t timeout_ms = options_.process_timeout_ms;
-  const auto deadline = context->deadline();
-  if (deadline != std::chrono::system_clock::time_point::max()) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-        deadline - std::chrono::system_clock::now());
-    timeout_ms = std::clamp<int64_t>(left.count(), 1, timeout_ms);
-  }
-  SubmitOutcome outcome = SubmitOutcome::kQueued;
-  Result<PoseOutput> result =
-      localizer_->SubmitAndWait(std::move(*input), timeout_ms * 1'000'000, &outcome);
-  if (outcome == SubmitOutcome::kQueueFull) {
-    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, result.status().message());
-  }
-  if (!result.ok()) {
-    if (outcome == SubmitOutcome::kQueued && result.status().code() == StatusCode::kUnavailable &&
-        std::chrono::system_clock::now() >= deadline) {
-      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, result.status().message());
-    }
-    return ToGrpcStatus(result.status());
-  }
+  Result<dataset::StereoPair> pair = StereoFromProto(request->stereo(), "stereo");
+  if (!pair.ok()) return ToGrpcStatus(pair.status());
+  StereoInput input(std::move(*pair));
+  input.publish = !request->skip_publish();
+  // The client's deadline, or process_timeout_ms when it set none.
+  const Termination deadline = CallTermination(*context).WithDeadlineNs(
+      Termination::AfterMs(static_cast<double>(options_.process_timeout_ms)).deadline_ns());
+  Result<RigPose> result = localizer_->Process(std::move(input), deadline);
+  if (!result.ok()) return ToGrpcStatus(result.status());
   ToProto(*result, response);
   return grpc::Status::OK;
 }

@@ -15,20 +15,21 @@
 #include "services/common/calibration_source.h"
 #include "services/localization/convert.h"
 #include "services/localization/dds_io.h"
-#include "services/localization/pipeline.h"
+#include "services/localization/localizer.h"
 
 namespace mav::localization_service {
 
 struct LocalizationServiceOptions {
   // Deadline of the GetCalibration call to a simulator calibration source (contract: 2 s).
   int64_t calibration_timeout_ms = 2000;
-  // Longest a ProcessStereoPair waits for its frame when the client set no deadline.
+  // Longest a ProcessStereoPair waits for its frame when the client set no deadline (it is then
+  // withdrawn if it had not started).
   int64_t process_timeout_ms = 30000;
 
   bool IsValid(std::string* why) const;
 };
 
-using services::ResolveCalibration;  // services/common/calibration_source.h
+using service_common::ResolveCalibration;  // services/common/calibration_source.h
 
 class LocalizationService final : public v1::Localization::Service {
  public:
@@ -51,9 +52,9 @@ class LocalizationService final : public v1::Localization::Service {
                                  const v1::ProcessStereoPairRequest* request,
                                  v1::ProcessStereoPairResponse* response) override;
 
-  // Configure without an RPC (main.cc's start-up flags).
+  // Configure without an RPC (main.cc's start-up flags) or with the call's deadline.
   grpc::Status ApplyConfigure(const v1::LocalizationConfigureRequest& request,
-                              v1::LocalizationStatus* response);
+                              const Termination& deadline, v1::LocalizationStatus* response);
 
  private:
   void FillStatus(v1::LocalizationStatus* response);

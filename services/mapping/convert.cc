@@ -10,13 +10,9 @@
 
 namespace mav::mapping_service {
 
-namespace {
+using service_common::Number;
 
-std::string Number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
-}
+namespace {
 
 // A double option: 0 keeps `*target`; otherwise finite and in [lo, hi] (lo exclusive when
 // `lo_open`).
@@ -33,16 +29,8 @@ Status DoubleOption(double value, double lo, bool lo_open, double hi, const std:
   return Status::Ok();
 }
 
-Eigen::AlignedBox3d BoundsOf(const mapping::GridGeometry& g) {
+Eigen::AlignedBox3d BoundsOf(const dataset::GridGeometry& g) {
   return Eigen::AlignedBox3d(g.origin, g.origin + g.size.cast<double>() * g.resolution);
-}
-
-void ToProto(const RuntimeSummary& stats, v1::RuntimeStats* out) {
-  out->set_count(stats.count);
-  out->set_mean_ms(stats.mean_ms);
-  out->set_median_ms(stats.median_ms);
-  out->set_p95_ms(stats.p95_ms);
-  out->set_max_ms(stats.max_ms);
 }
 
 }  // namespace
@@ -128,16 +116,6 @@ Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
       k.features_per_keyframe() == 0 ? 100 : static_cast<int>(k.features_per_keyframe());
   MAV_ASSIGN_OR_RETURN(config.pose_source, PoseSourceFromProto(request.pose_source()));
   return config;
-}
-
-Result<FrameInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field) {
-  MAV_ASSIGN_OR_RETURN(services::StereoImages images, services::StereoFromProto(pair, field));
-  FrameInput out;
-  out.t_ns = images.t_ns;
-  out.rectified = images.rectified;
-  out.left = std::move(images.left);
-  out.right = std::move(images.right);
-  return out;
 }
 
 Result<Eigen::AlignedBox3d> BoxFromProto(const v1::Box& box, const std::string& field) {

@@ -20,9 +20,10 @@
 
 namespace mav::mapping_service {
 
-using services::CalibrationFromProto;  // services/common/proto_codec.h
-using services::PoseFromProto;
-using services::RigCalibration;
+using service_common::CalibrationFromProto;  // services/common/proto_codec.h
+using service_common::PoseFromProto;
+using service_common::RigCalibration;
+using service_common::ToProto;
 
 // MappingMethod -> library method. UNSPECIFIED: nullopt when `allow_unspecified` (= "the most
 // recent build"), else InvalidArgument "<field>: not set ...". Unknown values: InvalidArgument.
@@ -40,10 +41,7 @@ v1::PoseSource ToProto(PoseSource source);
 Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
                                        const SessionConfig& defaults);
 
-// A StereoPair as a FrameInput (pixels copied). InvalidArgument naming "<field>.left..." for an
-// empty image, an encoding other than MONO8, data size != width*height, or left/right sizes that
-// differ. The size against the calibration is checked by the Mapper.
-Result<FrameInput> StereoFromProto(const v1::StereoPair& pair, const std::string& field);
+using service_common::StereoFromProto;  // a StereoPair message as a FrameInput (pixels copied)
 
 // A Box validated as common.proto says: "<field>.min.x: not finite", "<field>: min.z 3 > max.z 1".
 Result<Eigen::AlignedBox3d> BoxFromProto(const v1::Box& box, const std::string& field);

@@ -4,25 +4,15 @@
 
 #include "mav/common/log.h"
 #include "services/common/dds_codec.h"
+#include "services/common/dds_topics.h"
 
 namespace mav::mapping_service {
 
 namespace {
 
-constexpr int64_t kReaderPollNs = 100'000'000;
 constexpr int32_t kPoseBatch = 512;
 
 }  // namespace
-
-FrameInput FromDds(const mav_dds_StereoFrame& frame) {
-  services::StereoImages images = services::StereoFromDds(frame);
-  FrameInput out;
-  out.t_ns = images.t_ns;
-  out.rectified = images.rectified;
-  out.left = std::move(images.left);
-  out.right = std::move(images.right);
-  return out;
-}
 
 geometry::SE3 PoseFromDds(const mav_dds_GroundTruthState& state) {
   const auto& q = state.orientation;
@@ -36,18 +26,29 @@ geometry::SE3 PoseFromDds(const mav_dds_PoseWithCovariance& pose) {
   return geometry::SE3(Eigen::Quaterniond(q.w, q.x, q.y, q.z), Eigen::Vector3d(p.x, p.y, p.z));
 }
 
+std::optional<geometry::SE3> BodyPoseFromDds(const mav_dds_PoseWithCovariance& pose,
+                                             const geometry::SE3& T_body_cam0) {
+  if (pose.tracking_state != mav_dds_TRACKING_STATE_OK &&
+      pose.tracking_state != mav_dds_TRACKING_STATE_INITIALIZING) {
+    return std::nullopt;
+  }
+  const geometry::SE3 T_world_child = PoseFromDds(pose);
+  if (std::strcmp(pose.child_frame_id, "cam0") == 0) {
+    return geometry::BodyPoseFromSensorPose(T_world_child, T_body_cam0);
+  }
+  return T_world_child;
+}
+
 // ---- DdsIo --------------------------------------------------------------------------------------
 
 Result<std::unique_ptr<DdsIo>> DdsIo::Create(const transport::DdsOptions& options) {
   MAV_ASSIGN_OR_RETURN(transport::Participant participant, transport::Participant::Create(options));
-  MAV_ASSIGN_OR_RETURN(
-      StereoTopic stereo_topic,
-      StereoTopic::Create(participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
+  MAV_ASSIGN_OR_RETURN(StereoTopic stereo_topic,
+                       service_common::OpenTopic<mav_dds_StereoFrame>(participant));
   MAV_ASSIGN_OR_RETURN(GroundTruthTopic ground_truth_topic,
-                       GroundTruthTopic::Create(participant, transport::kGroundTruthTopic,
-                                                &mav_dds_GroundTruthState_desc));
-  MAV_ASSIGN_OR_RETURN(PoseTopic pose_topic, PoseTopic::Create(participant, transport::kPoseTopic,
-                                                               &mav_dds_PoseWithCovariance_desc));
+                       service_common::OpenTopic<mav_dds_GroundTruthState>(participant));
+  MAV_ASSIGN_OR_RETURN(PoseTopic pose_topic,
+                       service_common::OpenTopic<mav_dds_PoseWithCovariance>(participant));
   return std::unique_ptr<DdsIo>(new DdsIo(std::move(participant), std::move(stereo_topic),
                                           std::move(ground_truth_topic), std::move(pose_topic)));
 }
@@ -70,10 +71,7 @@ bool DdsIo::input_enabled() const {
 }
 
 void DdsIo::StopReaderLocked() {
-  if (reader_thread_.joinable()) {
-    stop_reader_ = true;
-    reader_thread_.join();
-  }
+  read_loop_.reset();  // joins the loop before its readers go
   stereo_reader_.reset();
   ground_truth_reader_.reset();
   pose_reader_.reset();
@@ -102,84 +100,50 @@ Status DdsIo::SetInput(bool enabled, PoseSource source) {
                                           participant_, pose_topic_, Qos::State()));
     pose_reader_.emplace(std::move(reader));
   }
-  stop_reader_ = false;
-  reader_thread_ = std::thread([this] { ReadLoop(); });
+  read_loop_.emplace("mapping input");
+  // Poses first, so that a frame finds the poses published before it.
+  if (ground_truth_reader_) {
+    read_loop_->AddReader<mav_dds_GroundTruthState>(
+        &*ground_truth_reader_,
+        [this](const mav_dds_GroundTruthState& state) {
+          ++poses_received_;
+          mapper_->SubmitPose(state.t_ns, PoseFromDds(state));
+        },
+        kPoseBatch);
+  }
+  if (pose_reader_) {
+    const std::optional<SessionConfig> config = mapper_->config();
+    const geometry::SE3 T_body_cam0 =
+        config ? config->calibration.T_body_cam0 : geometry::SE3::Identity();
+    read_loop_->AddReader<mav_dds_PoseWithCovariance>(
+        &*pose_reader_,
+        [this, T_body_cam0](const mav_dds_PoseWithCovariance& pose) {
+          ++poses_received_;
+          // A LOST pose is the last good one held, not the pose at its t_ns: ignored.
+          if (std::optional<geometry::SE3> T_world_body = BodyPoseFromDds(pose, T_body_cam0)) {
+            mapper_->SubmitPose(pose.t_ns, *T_world_body);
+          }
+        },
+        kPoseBatch);
+  }
+  read_loop_->SetWakeReader<mav_dds_StereoFrame>(
+      &*stereo_reader_, [this](const mav_dds_StereoFrame& frame) { OnFrame(frame); }, 4);
+  read_loop_->SetOnPoll([this] { mapper_->Tick(); });
+  MAV_RETURN_IF_ERROR(read_loop_->Start());
   MAV_LOG(kInfo) << "DDS input on: " << transport::kStereoTopic << " + poses from "
                  << PoseSourceName(source);
   return Status::Ok();
 }
 
-void DdsIo::TakePoses() {
-  if (ground_truth_reader_) {
-    while (true) {
-      auto samples = ground_truth_reader_->Take(kPoseBatch);
-      if (!samples.ok() || samples->size() == 0) break;
-      for (int32_t i = 0; i < samples->size(); ++i) {
-        if (!samples->valid(i)) continue;
-        ++poses_received_;
-        mapper_->SubmitPose((*samples)[i].t_ns, PoseFromDds((*samples)[i]));
-      }
-      if (samples->size() < kPoseBatch) break;
-    }
+void DdsIo::OnFrame(const mav_dds_StereoFrame& frame) {
+  ++frames_received_;
+  const Status check = service_common::CheckStereoFrame(frame);
+  if (!check.ok()) {
+    MAV_LOG(kWarning) << "rejected: " << check.message();
+    mapper_->CountRejected();
+    return;
   }
-  if (pose_reader_) {
-    std::optional<geometry::SE3> T_body_cam0;
-    while (true) {
-      auto samples = pose_reader_->Take(kPoseBatch);
-      if (!samples.ok() || samples->size() == 0) break;
-      for (int32_t i = 0; i < samples->size(); ++i) {
-        if (!samples->valid(i)) continue;
-        const mav_dds_PoseWithCovariance& pose = (*samples)[i];
-        ++poses_received_;
-        if (pose.tracking_state != mav_dds_TRACKING_STATE_OK &&
-            pose.tracking_state != mav_dds_TRACKING_STATE_INITIALIZING) {
-          continue;
-        }
-        geometry::SE3 T_world_body = PoseFromDds(pose);
-        if (std::strcmp(pose.child_frame_id, "cam0") == 0) {
-          if (!T_body_cam0) {
-            const std::optional<SessionConfig> config = mapper_->config();
-            if (!config) continue;
-            T_body_cam0 = config->calibration.T_body_cam0;
-          }
-          T_world_body = T_world_body * T_body_cam0->Inverse();
-        }
-        mapper_->SubmitPose(pose.t_ns, T_world_body);
-      }
-      if (samples->size() < kPoseBatch) break;
-    }
-  }
-}
-
-// The readers are not replaced while this thread runs (SetInput joins it first).
-void DdsIo::ReadLoop() {
-  while (!stop_reader_) {
-    Result<bool> ready = stereo_reader_->WaitForData(kReaderPollNs);
-    TakePoses();
-    mapper_->Tick();
-    if (!ready.ok()) {
-      MAV_LOG(kWarning) << ready.status().ToString();
-      continue;
-    }
-    if (!*ready) continue;
-    Result<transport::LoanedSamples<mav_dds_StereoFrame>> frames = stereo_reader_->Take(4);
-    if (!frames.ok()) {
-      MAV_LOG(kWarning) << frames.status().ToString();
-      continue;
-    }
-    for (int32_t i = 0; i < frames->size(); ++i) {
-      if (!frames->valid(i)) continue;
-      ++frames_received_;
-      const mav_dds_StereoFrame& frame = (*frames)[i];
-      const Status check = services::CheckStereoFrame(frame);
-      if (!check.ok()) {
-        MAV_LOG(kWarning) << "rejected: " << check.message();
-        mapper_->CountRejected();
-        continue;
-      }
-      mapper_->SubmitLiveFrame(FromDds(frame));
-    }
-  }
+  mapper_->SubmitLiveFrame(service_common::StereoFromDds(frame));
 }
 
 }  // namespace mav::mapping_service

@@ -6,9 +6,9 @@
 // The readers exist only while a session with DDS input is active (StartSession with a pose
 // source and without disable_dds_input): an idle service is no subscriber, so a simulator waiting
 // for its subscribers does not count it.
-// One reader thread waits for frames (100 ms polls), takes every pose sample first (so a frame
-// finds the poses published before it), then the frames; checks each frame (size, CRC-32),
-// copies its pixels and hands it to Mapper::SubmitLiveFrame, which never blocks.
+// The read loop (transport::DdsReadLoop) waits for frames (100 ms polls), takes every pose sample
+// first (so a frame finds the poses published before it), then the frames; checks each frame
+// (size, CRC-32), copies its pixels and hands it to Mapper::SubmitLiveFrame, which never blocks.
 // Localization poses with child_frame_id "cam0" are turned into body poses with the session's
 // T_body_cam0; poses whose tracking state is not OK/INITIALIZING are ignored (a LOST pose is the
 // last good one held, not the pose at its t_ns).
@@ -19,23 +19,23 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <thread>
 
 #include "mav_sensors.h"
 #include "mav_state.h"
 
 #include "mav/transport/dds.h"
+#include "mav/transport/dds_read_loop.h"
 #include "services/mapping/mapper.h"
 
 namespace mav::mapping_service {
 
-// Copies a frame's pixels (check it first with services::CheckStereoFrame,
-// services/common/dds_codec.h).
-FrameInput FromDds(const mav_dds_StereoFrame& frame);
-
-// T_world_body of the samples.
+// The pose of the samples (T_world_body; T_world_<child_frame_id> for a localization pose).
 geometry::SE3 PoseFromDds(const mav_dds_GroundTruthState& state);
 geometry::SE3 PoseFromDds(const mav_dds_PoseWithCovariance& pose);
+// A localization pose as T_world_body (a cam0 pose through T_body_cam0); nullopt for a pose
+// whose tracking state is not OK/INITIALIZING.
+std::optional<geometry::SE3> BodyPoseFromDds(const mav_dds_PoseWithCovariance& pose,
+                                             const geometry::SE3& T_body_cam0);
 
 // Switches the live input on and off (DDS in production; absent in contract tests).
 class InputControl {
@@ -67,8 +67,7 @@ class DdsIo : public InputControl {
   using PoseTopic = transport::Topic<mav_dds_PoseWithCovariance>;
   DdsIo(transport::Participant participant, StereoTopic stereo_topic,
         GroundTruthTopic ground_truth_topic, PoseTopic pose_topic);
-  void ReadLoop();
-  void TakePoses();
+  void OnFrame(const mav_dds_StereoFrame& frame);
   void StopReaderLocked();
 
   Mapper* mapper_ = nullptr;
@@ -82,8 +81,7 @@ class DdsIo : public InputControl {
   std::optional<transport::Reader<mav_dds_StereoFrame>> stereo_reader_;
   std::optional<transport::Reader<mav_dds_GroundTruthState>> ground_truth_reader_;
   std::optional<transport::Reader<mav_dds_PoseWithCovariance>> pose_reader_;
-  std::thread reader_thread_;
-  std::atomic<bool> stop_reader_{false};
+  std::optional<transport::DdsReadLoop> read_loop_;
 
   std::atomic<uint64_t> frames_received_{0};
   std::atomic<uint64_t> poses_received_{0};

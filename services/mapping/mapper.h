@@ -1,63 +1,56 @@
 #pragma once
-// The mapping service's domain core, free of gRPC, protobuf and DDS: the Mapper, whose one worker
-// thread owns a mapping::MappingPipeline (libs/mapping/pipeline.h: the sparse multi-view mesher
-// of Labatut et al. 2007 and the OctoMap + dense stereo baseline on the same keyframes).
+// The mapping service's core, free of gRPC, protobuf and DDS: the Mapper, whose one worker (a
+// WorkQueue) owns a mapping::MappingPipeline (libs/mapping/pipeline.h: the sparse multi-view
+// mesher of Labatut et al. 2007 and the OctoMap + dense stereo baseline on the same keyframes).
 //
-//   DDS stereo --SubmitLiveFrame--> PoseMatcher (pending frames, pose history)
+//   DDS stereo --SubmitLiveFrame--> mapping::PoseMatcher (pending frames, pose history)
 //   DDS poses  --SubmitPose-------^      | frame + T_world_body
 //                                        v
-//                          keyframe rule (KeyframeSelector)   <--SubmitKeyframeAndWait (unary)
+//                          keyframe rule (KeyframeSelector)   <--InsertKeyframe (unary)
 //                                        | keyframes only
 //                                        v
-//                      [bounded queue, drop-oldest for live]  --> worker: rectify,
-//   SubmitBuildAndWait ------------------^                        pipeline.InsertKeyframe / build
+//                      [WorkQueue: drop-oldest for live, reject for unary]  --> worker:
+//   Build -------------------------------^                 rectify, pipeline.InsertKeyframe / Build
 //
 // Poses. Poses on the input are T_world_body (EuRoC's body = IMU frame). The camera pose used by
-// the mappers is the rectified left camera's, T_world_rect0 = T_world_body * T_body_rect0, with
-// T_body_rect0 = StereoRectifier::T_body_rect0() (T_body_cam0 for a calibration flagged
-// rectified).
+// the mappers is the rectified left camera's, T_world_rect0 = T_world_body * T_body_rect0
+// (camera::RigRectification).
 //
-// Pairing frames with poses (PoseMatcher):
-//  * ground truth (200 Hz): the pose at the frame's t_ns is interpolated (SE3 geodesic,
-//    geometry::InterpolatePose) between the last sample <= t and the first sample >= t; each must
-//    be within kMaxPoseGapNs (25 ms) of t, else the frame is dropped as "without pose";
-//  * localization (one pose per processed frame): the pose with exactly the frame's t_ns.
-//  A frame waits (pending, at most kMaxPendingFrames) until its pose can be decided; it is dropped
-//  as "without pose" when the pose stream has moved more than 25 ms past it without a match,
-//  when the history no longer reaches back to it, or after `pose_wait_ms` of wall time.
+// Keyframes. The keyframe rule runs when a frame gets its pose, before the queue, so only
+// keyframes' images are queued and processed. Both methods integrate every keyframe as it
+// arrives; Build runs MappingPipeline::Build (the code mav-eval runs) for the requested method on
+// the keyframes integrated so far.
 //
-// Keyframes. The keyframe rule (mapping::KeyframeSelector) runs when a frame gets its pose, before
-// the queue, so only keyframes' images are queued and processed (rectification, ~100 sparse
-// stereo points, dense stereo + OctoMap ray casting). Both methods integrate every keyframe as it
-// arrives; BuildMap runs only the whole-data-set stage of the requested method (meshing + mesh ->
-// grid, or octree -> grid) on a snapshot of the keyframes integrated so far.
+// Memory: at most queue_length keyframes wait (a stereo pair each); the pose matcher keeps 4000
+// poses and 32 pending frames; the pipeline's per-keyframe memory is the keyframe's data (its
+// sparse points and lines of sight, its OctoMap voxels); the last map of each method is kept;
+// a build whose grid exceeds max_voxels is refused before allocating.
 //
 // Thread-safety: every public method may be called from any thread.
 
-#include <chrono>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
-#include <future>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
 
+#include "mav/camera/rectifier.h"
 #include "mav/camera/stereo.h"
+#include "mav/common/stats.h"
 #include "mav/common/status.h"
+#include "mav/common/termination.h"
+#include "mav/common/work_queue.h"
+#include "mav/dataset/stereo_pair.h"
 #include "mav/geometry/se3.h"
 #include "mav/mapping/collision_eval.h"
-#include "mav/mapping/delaunay_graph_cut.h"
 #include "mav/mapping/keyframes.h"
 #include "mav/mapping/mesh.h"
 #include "mav/mapping/pipeline.h"
-#include "mav/mapping/voxel_grid.h"
+#include "mav/mapping/pose_matcher.h"
 
 namespace mav::mapping_service {
 
@@ -66,9 +59,6 @@ using mapping::MappingMethod;
 // Where DDS poses come from (same meaning as mav.v1.PoseSource).
 enum class PoseSource { kNone, kLocalization, kGroundTruth };
 const char* PoseSourceName(PoseSource source);  // "none", "localization", "ground-truth"
-
-inline constexpr int64_t kMaxPoseGapNs = 25'000'000;
-inline constexpr int kMaxPendingFrames = 32;
 
 struct SessionConfig {
   // The raw rig; with calibration_rectified an ideal rectified pair used as it is.
@@ -88,12 +78,7 @@ struct SessionConfig {
 
 // One stereo pair. Images CV_8UC1 of the calibration's size; `rectified`: already in the
 // rectified geometry (not remapped).
-struct FrameInput {
-  int64_t t_ns = 0;
-  cv::Mat left;
-  cv::Mat right;
-  bool rectified = false;
-};
+using FrameInput = dataset::StereoPair;
 
 struct KeyframeResult {
   bool accepted = false;        // false: skipped by the keyframe rule
@@ -116,9 +101,6 @@ struct BuildRequest {
   // SPARSE_MESH: the mesher's options and the minimum number of keyframes that saw a point.
   mapping::MeshingOptions meshing;
   int min_visibility = 1;
-  // The build is abandoned (DEADLINE_EXCEEDED, nothing kept) when this monotonic time passes;
-  // checked between stages. 0 = none.
-  int64_t deadline_monotonic_ns = 0;
 
   static constexpr double kDefaultPaddingM = 1.0;
 };
@@ -152,14 +134,9 @@ struct MapStats {
 // The last build of a method: immutable once published, shared with readers.
 struct BuiltMap {
   MapStats stats;
-  mapping::VoxelGrid grid;
+  dataset::OccupancyGrid grid;
   std::unique_ptr<mapping::BoxQuery> query;  // over `grid`
   mapping::TriangleMesh mesh;                // SPARSE_MESH only
-};
-
-struct RuntimeSummary {
-  uint64_t count = 0;
-  double mean_ms = 0, median_ms = 0, p95_ms = 0, max_ms = 0;
 };
 
 struct MapperStatus {
@@ -179,54 +156,7 @@ struct MapperStatus {
   double build_fraction = 0;
   double build_elapsed_s = 0;
   std::vector<MapStats> maps;  // the last build of each method (sparse-mesh first)
-  RuntimeSummary keyframe_ms;
-};
-
-// Why a call failed when the library Status has no code for it.
-enum class Refusal {
-  kNone,
-  kResourceExhausted,  // queue full, keyframe limit, a build running, voxel limit
-  kDeadlineExceeded,   // the caller's deadline passed
-};
-
-// Pairs frames with poses (see the header comment). Not thread-safe (the Mapper locks it).
-class PoseMatcher {
- public:
-  PoseMatcher(PoseSource source, int64_t pose_wait_ns) : source_(source), wait_ns_(pose_wait_ns) {}
-
-  struct Matched {
-    FrameInput frame;
-    geometry::SE3 T_world_body;
-  };
-  // Adds a pose sample (T_world_body at t_ns); returns the pending frames it resolves, in time
-  // order. *dropped counts frames decided to have no pose.
-  std::vector<Matched> AddPose(int64_t t_ns, const geometry::SE3& T_world_body, uint64_t* dropped);
-  // Adds a frame; returns it (and any other resolved frames) when its pose is known now.
-  std::vector<Matched> AddFrame(FrameInput frame, int64_t now_ns, uint64_t* dropped);
-  // Drops frames that waited longer than the pose wait. Returns how many.
-  uint64_t Expire(int64_t now_ns);
-  // Whether the pose at t_ns can be decided from the history now: kPose (written to
-  // *T_world_body), kWait (may come later) or kNoPose (never: drop the frame).
-  enum class Decision { kPose, kWait, kNoPose };
-  Decision Lookup(int64_t t_ns, geometry::SE3* T_world_body) const;
-
-  size_t pending() const { return pending_.size(); }
-  size_t history() const { return poses_.size(); }
-  void Clear();
-
-  static constexpr size_t kMaxHistory = 4000;  // 20 s of 200 Hz ground truth
-
- private:
-  struct Pending {
-    FrameInput frame;
-    int64_t arrived_ns = 0;
-  };
-  std::vector<Matched> Resolve(uint64_t* dropped);
-
-  PoseSource source_;
-  int64_t wait_ns_;
-  std::deque<std::pair<int64_t, geometry::SE3>> poses_;  // ascending t_ns
-  std::deque<Pending> pending_;                          // ascending arrival
+  RuntimeStats keyframe_ms;    // the last 1000 keyframes
 };
 
 class Mapper {
@@ -238,18 +168,20 @@ class Mapper {
 
   // Builds the rectifier and a fresh pipeline for `config` (InvalidArgument naming the field),
   // then replaces any previous session: queued frames are discarded, keyframes, maps and counters
-  // restart. Waits for the work in flight (a running build finishes first).
-  Status StartSession(const SessionConfig& config);
+  // restart. Waits for the work in flight (a running build finishes first). DEADLINE_EXCEEDED
+  // (nothing changed) when `deadline` stops before the new session is in place.
+  Status StartSession(const SessionConfig& config, const Termination& deadline = {});
   // Drops keyframes, maps, queued and pending frames and counters; keeps the configuration.
   // FailedPrecondition without a session.
-  Status Reset();
+  Status Reset(const Termination& deadline = {});
 
   bool session_active() const;
-  // The session's configuration (nullopt without one) and its rectified rig.
+  // The session's configuration (nullopt without one).
   std::optional<SessionConfig> config() const;
 
   // Checks a unary frame against the session: InvalidArgument naming `field`.left/right (size
-  // differs from the calibration); FailedPrecondition without a session.
+  // differs from the calibration) or `field`.t_ns (older than the last keyframe's);
+  // FailedPrecondition without a session.
   Status CheckInput(const FrameInput& frame, const std::string& field) const;
 
   // Live input (DDS): never blocks.
@@ -260,22 +192,22 @@ class Mapper {
   // Counts a live frame that was malformed before it became a FrameInput (bad checksum).
   void CountRejected();
 
-  // Unary input: applies the keyframe rule (force skips it) and waits until the worker has
-  // integrated the keyframe, at most until `deadline_monotonic_ns` (0 = 30 s).
-  // FailedPrecondition without a session; InvalidArgument as CheckInput / a non-finite pose;
-  // *refusal = kResourceExhausted when a build is running, the keyframe limit is reached or the
-  // queue is full, kDeadlineExceeded when the deadline passed.
-  Result<KeyframeResult> SubmitKeyframeAndWait(FrameInput frame, const geometry::SE3& T_world_body,
-                                               bool force, int64_t deadline_monotonic_ns,
-                                               Refusal* refusal);
+  // Unary input: validates like CheckInput (and a non-finite pose), applies the keyframe rule
+  // (force skips it) and waits until the worker has integrated the keyframe, at most until
+  // `deadline` (DEADLINE_EXCEEDED; a keyframe not yet started is withdrawn and changes nothing).
+  // FailedPrecondition without a session; RESOURCE_EXHAUSTED when a build is running, the
+  // keyframe limit is reached or the queue is full.
+  Result<KeyframeResult> InsertKeyframe(FrameInput frame, const geometry::SE3& T_world_body,
+                                        bool force, const Termination& deadline);
 
   // Builds the map of `request.method` from the keyframes integrated so far (queued keyframes
-  // first), publishes it as the method's last map and returns its stats. FailedPrecondition
-  // without a session or without keyframes ("empty map"); InvalidArgument naming the field
-  // (resolution_m, bounds, meshing options); *refusal = kResourceExhausted when a build is
-  // running or the grid exceeds `max_voxels`, kDeadlineExceeded when the deadline passed
-  // (nothing kept). The library's errors are passed on.
-  Result<MapStats> BuildAndWait(const BuildRequest& request, Refusal* refusal);
+  // first) with MappingPipeline::Build, publishes it as the method's last map and returns its
+  // stats. FailedPrecondition without a session or without keyframes ("empty map");
+  // InvalidArgument naming the field (resolution_m, bounds, sparse_mesh options);
+  // RESOURCE_EXHAUSTED when a build is running or the grid exceeds max_voxels (before any
+  // allocation); DEADLINE_EXCEEDED when `deadline` stops the build (nothing kept). The
+  // library's errors are passed on.
+  Result<MapStats> Build(const BuildRequest& request, const Termination& deadline);
 
   // The last built map of a method; nullopt method = the most recent build of any method.
   // Null when there is none.
@@ -290,49 +222,45 @@ class Mapper {
   void Shutdown();
 
  private:
-  struct Engine;  // rectifier + pipeline; used by the worker
-  struct KeyframeJob;
-  struct BuildJob;
-  struct Item;
+  struct Engine;  // rectification + pipeline; owned by the worker
 
-  void WorkerLoop();
-  void EnqueueMatchedLocked(std::vector<PoseMatcher::Matched> matched);
+  // Queues the keyframes the rule selects among `matched` (live input, drop-oldest).
+  void EnqueueLive(std::vector<mapping::PoseMatcher<FrameInput>::Matched> matched);
+  // With mutex_ held: the keyframe rule (force: the frame becomes the rule's new reference).
   bool SelectLocked(const geometry::SE3& T_world_body, bool force);
-  void ClearLocked();
-  Result<KeyframeResult> ProcessKeyframe(Engine* engine, const FrameInput& frame,
+  Ticket<Result<KeyframeResult>> SubmitKeyframe(FrameInput frame, const geometry::SE3& T_world_body,
+                                                QueuePolicy policy, const Termination& deadline);
+  // On the worker.
+  Result<KeyframeResult> ProcessKeyframe(const FrameInput& frame,
                                          const geometry::SE3& T_world_body);
-  Result<std::shared_ptr<BuiltMap>> RunBuild(Engine* engine, const BuildRequest& request,
-                                             Refusal* refusal);
-  void SetProgress(const std::string& stage, double fraction);
+  Result<std::shared_ptr<BuiltMap>> RunBuild(const BuildRequest& request,
+                                             const Termination& deadline);
+  void ClearLocked();
+
+  WorkQueue queue_;
+  std::unique_ptr<Engine> engine_;  // worker only
 
   mutable std::mutex mutex_;
-  std::condition_variable work_cv_;
-  std::condition_variable idle_cv_;
-  std::thread worker_;
-  bool shutdown_ = false;
-
   // Guarded by mutex_.
-  std::unique_ptr<Engine> engine_;
   std::optional<SessionConfig> config_;
   camera::RectifiedStereo rig_;  // the session's rectified rig (image size checks)
   geometry::SE3 T_body_rect0_;   // for the keyframe rule
   std::optional<mapping::KeyframeSelector> selector_;
-  bool busy_ = false;
-  uint64_t generation_ = 0;
-  std::deque<std::unique_ptr<Item>> queue_;
-  std::optional<PoseMatcher> matcher_;
+  std::optional<mapping::PoseMatcher<FrameInput>> matcher_;
   uint64_t frames_seen_ = 0;
   uint64_t frames_without_pose_ = 0;
   uint64_t frames_dropped_ = 0;
   uint64_t frames_rejected_ = 0;
   uint32_t keyframes_selected_ = 0;  // accepted by the rule (queued or integrated)
   uint32_t keyframes_done_ = 0;
+  int64_t last_keyframe_t_ns_ = 0;
+  bool have_keyframe_ = false;
   uint64_t points_ = 0;
   bool building_ = false;
   std::string build_stage_;
   double build_fraction_ = 0;
   int64_t build_start_ns_ = 0;
-  std::vector<double> keyframe_ms_;
+  RuntimeWindow keyframe_ms_;
   std::shared_ptr<const BuiltMap> sparse_mesh_map_;
   std::shared_ptr<const BuiltMap> octomap_map_;
   std::optional<MappingMethod> last_built_;

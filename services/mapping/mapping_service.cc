@@ -1,10 +1,7 @@
 #include "services/mapping/mapping_service.h"
 
-#include <unistd.h>
-
 #include <chrono>
 #include <cstdlib>
-#include <filesystem>
 #include <functional>
 
 #include <grpcpp/create_channel.h>
@@ -16,114 +13,34 @@
 #include "mav/common/log.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/mapping/mesh.h"
-#include "mav/sim/occupancy.h"
 #include "mav/transport/grpc_server.h"
+#include "services/common/file_stream.h"
+#include "services/common/grpc_status.h"
 
 namespace mav::mapping_service {
 
 namespace {
 
-using transport::ToGrpcStatus;
+using service_common::CallTermination;
+using service_common::CheckDeadline;
+using service_common::ChunkSize;
+using service_common::OccupancyFormatFromProto;
+using service_common::StreamChunks;
+using service_common::StreamOccupancy;
+using service_common::ToGrpcStatus;
 
-constexpr uint32_t kDefaultChunkBytes = 1 << 20;
-constexpr uint32_t kMinChunkBytes = 4096;
-constexpr uint32_t kMaxChunkBytes = 4 << 20;
-constexpr int kMaxBoxes = 100000;
+// Longest an InsertKeyframe waits for its keyframe when the client set no deadline.
+constexpr double kDefaultWaitMs = 30'000;
+// ~60 bytes per box on the wire: 50 000 boxes stay well inside gRPC's 4 MiB message limit.
+constexpr int kMaxBoxes = 50000;
 
-grpc::Status Refused(const Status& status, Refusal refusal) {
-  switch (refusal) {
-    case Refusal::kResourceExhausted:
-      return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED, status.message());
-    case Refusal::kDeadlineExceeded:
-      return grpc::Status(grpc::StatusCode::DEADLINE_EXCEEDED, status.message());
-    case Refusal::kNone:
-      break;
-  }
-  return ToGrpcStatus(status);
-}
-
-// The client's deadline as a monotonic time; 0 when it set none.
-int64_t MonotonicDeadline(const grpc::ServerContext* context) {
-  const auto deadline = context->deadline();
-  if (deadline == std::chrono::system_clock::time_point::max()) return 0;
-  const auto left = std::chrono::duration_cast<std::chrono::nanoseconds>(
-      deadline - std::chrono::system_clock::now());
-  return MonotonicNowNs() + std::max<int64_t>(1, left.count());
-}
-
-Result<uint32_t> ChunkSize(uint32_t requested) {
-  const uint32_t bytes = requested == 0 ? kDefaultChunkBytes : requested;
-  if (bytes < kMinChunkBytes || bytes > kMaxChunkBytes) {
-    return Status::InvalidArgument("chunk_size: must be in [4096, 4194304] bytes, got " +
-                                   std::to_string(requested));
-  }
-  return bytes;
-}
-
-// A file in the temporary directory, removed on destruction.
-class TempFile {
- public:
-  explicit TempFile(const std::string& suffix) {
-    std::string pattern =
-        (std::filesystem::temp_directory_path() / ("mav-mapping-XXXXXX" + suffix)).string();
-    const int fd = mkstemps(pattern.data(), static_cast<int>(suffix.size()));
-    if (fd >= 0) {
-      close(fd);
-      path_ = pattern;
-    }
-  }
-  ~TempFile() {
-    if (!path_.empty()) std::filesystem::remove(path_);
-  }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
-
-Result<std::string> EncodeOccupancy(const mapping::VoxelGrid& grid, v1::OccupancyFormat format) {
-  const bool octomap = format == v1::OCCUPANCY_FORMAT_OCTOMAP_BT;
-  TempFile file(octomap ? ".bt" : ".mavocc");
-  if (file.path().empty()) return Status::IoError("cannot create a temporary file");
-  if (octomap) {
-    MAV_RETURN_IF_ERROR(grid.WriteOctomap(file.path()));
-  } else {
-    // The project's lossless format lives with the simulator's grid (same layout and values).
-    sim::OccupancyGrid out(grid.origin(), grid.resolution(), grid.size());
-    const Eigen::Vector3i& n = grid.size();
-    for (int k = 0; k < n.z(); ++k) {
-      for (int j = 0; j < n.y(); ++j) {
-        for (int i = 0; i < n.x(); ++i) {
-          out.set({i, j, k}, static_cast<sim::VoxelState>(grid[grid.Linear(i, j, k)]));
-        }
-      }
-    }
-    MAV_RETURN_IF_ERROR(out.Write(file.path()));
-  }
-  return ReadFileToString(file.path());
-}
-
-// Streams `bytes` as FileChunks; `send` fills in the per-message wrapper and writes it.
-grpc::Status StreamChunks(grpc::ServerContext* context, const std::string& bytes,
-                          uint32_t chunk_bytes,
-                          const std::function<bool(v1::FileChunk&&, bool first)>& send) {
-  const uint64_t total = bytes.size();
-  uint64_t offset = 0;
-  do {
-    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
-    const uint64_t n = std::min<uint64_t>(chunk_bytes, total - offset);
-    v1::FileChunk chunk;
-    chunk.set_offset(offset);
-    chunk.set_total_size(total);
-    chunk.set_data(bytes.substr(offset, n));
-    chunk.set_last(offset + n == total);
-    if (!send(std::move(chunk), offset == 0)) {
-      return grpc::Status(grpc::StatusCode::CANCELLED, "client went away");
-    }
-    offset += n;
-  } while (offset < total);
-  return grpc::Status::OK;
+Status NoMap(const std::optional<MappingMethod>& method) {
+  return Status::NotFound(
+      std::string("no ") +
+      (method.has_value() ? mapping::MappingMethodName(*method) + std::string(" ") : "") +
+      "map has been built: call BuildMap first");
 }
 
 }  // namespace
@@ -146,6 +63,7 @@ MappingService::MappingService(Mapper* mapper, InputControl* input, MappingServi
 }
 
 grpc::Status MappingService::ApplyStartSession(const v1::StartSessionRequest& request,
+                                               const Termination& deadline,
                                                v1::MappingStatus* response) {
   SessionConfig defaults;
   defaults.queue_length = static_cast<int>(options_.queue_length);
@@ -160,7 +78,7 @@ grpc::Status MappingService::ApplyStartSession(const v1::StartSessionRequest& re
   }
   config->calibration = rig->calibration;
   config->calibration_rectified = rig->rectified;
-  const Status started = mapper_->StartSession(*config);
+  const Status started = mapper_->StartSession(*config, deadline);
   if (!started.ok()) return ToGrpcStatus(started);
   if (input_ != nullptr) {
     const bool dds = !request.disable_dds_input() && config->pose_source != PoseSource::kNone;
@@ -171,15 +89,17 @@ grpc::Status MappingService::ApplyStartSession(const v1::StartSessionRequest& re
   return grpc::Status::OK;
 }
 
-grpc::Status MappingService::StartSession(grpc::ServerContext*,
+grpc::Status MappingService::StartSession(grpc::ServerContext* context,
                                           const v1::StartSessionRequest* request,
                                           v1::MappingStatus* response) {
-  return ApplyStartSession(*request, response);
+  if (Status s = CheckDeadline(*context, "StartSession"); !s.ok()) return ToGrpcStatus(s);
+  return ApplyStartSession(*request, CallTermination(*context), response);
 }
 
-grpc::Status MappingService::Reset(grpc::ServerContext*, const v1::MappingResetRequest*,
+grpc::Status MappingService::Reset(grpc::ServerContext* context, const v1::MappingResetRequest*,
                                    v1::MappingStatus* response) {
-  const Status reset = mapper_->Reset();
+  if (Status s = CheckDeadline(*context, "Reset"); !s.ok()) return ToGrpcStatus(s);
+  const Status reset = mapper_->Reset(CallTermination(*context));
   if (!reset.ok()) return ToGrpcStatus(reset);
   ToProto(mapper_->GetStatus(), response);
   return grpc::Status::OK;
@@ -205,10 +125,11 @@ grpc::Status MappingService::InsertKeyframe(grpc::ServerContext* context,
   if (!frame.ok()) return ToGrpcStatus(frame.status());
   Result<geometry::SE3> pose = PoseFromProto(request->t_world_body(), "t_world_body");
   if (!pose.ok()) return ToGrpcStatus(pose.status());
-  Refusal refusal = Refusal::kNone;
-  Result<KeyframeResult> result = mapper_->SubmitKeyframeAndWait(
-      std::move(*frame), *pose, request->force(), MonotonicDeadline(context), &refusal);
-  if (!result.ok()) return Refused(result.status(), refusal);
+  if (Status s = CheckDeadline(*context, "InsertKeyframe"); !s.ok()) return ToGrpcStatus(s);
+  Result<KeyframeResult> result = mapper_->InsertKeyframe(
+      std::move(*frame), *pose, request->force(),
+      CallTermination(*context).WithDeadlineNs(Termination::AfterMs(kDefaultWaitMs).deadline_ns()));
+  if (!result.ok()) return ToGrpcStatus(result.status());
   ToProto(*result, response);
   return grpc::Status::OK;
 }
@@ -218,10 +139,9 @@ grpc::Status MappingService::BuildMap(grpc::ServerContext* context,
                                       v1::BuildMapResponse* response) {
   Result<BuildRequest> build = BuildFromProto(*request);
   if (!build.ok()) return ToGrpcStatus(build.status());
-  build->deadline_monotonic_ns = MonotonicDeadline(context);
-  Refusal refusal = Refusal::kNone;
-  Result<MapStats> stats = mapper_->BuildAndWait(*build, &refusal);
-  if (!stats.ok()) return Refused(stats.status(), refusal);
+  if (Status s = CheckDeadline(*context, "BuildMap"); !s.ok()) return ToGrpcStatus(s);
+  Result<MapStats> stats = mapper_->Build(*build, CallTermination(*context));
+  if (!stats.ok()) return ToGrpcStatus(stats.status());
   ToProto(*stats, response);
   return grpc::Status::OK;
 }
@@ -233,33 +153,11 @@ grpc::Status MappingService::GetOccupancy(grpc::ServerContext* context,
   if (!method.ok()) return ToGrpcStatus(method.status());
   Result<uint32_t> chunk_bytes = ChunkSize(request->chunk_size());
   if (!chunk_bytes.ok()) return ToGrpcStatus(chunk_bytes.status());
-  v1::OccupancyFormat format = request->format();
-  if (format == v1::OCCUPANCY_FORMAT_UNSPECIFIED) format = v1::OCCUPANCY_FORMAT_OCTOMAP_BT;
-  if (format != v1::OCCUPANCY_FORMAT_OCTOMAP_BT && format != v1::OCCUPANCY_FORMAT_MAVOCC) {
-    return ToGrpcStatus(Status::InvalidArgument("format: unknown value " +
-                                                std::to_string(static_cast<int>(format))));
-  }
+  Result<v1::OccupancyFormat> format = OccupancyFormatFromProto(request->format());
+  if (!format.ok()) return ToGrpcStatus(format.status());
   std::shared_ptr<const BuiltMap> map = mapper_->Map(*method);
-  if (map == nullptr) {
-    return ToGrpcStatus(Status::NotFound(
-        std::string("no ") +
-        (method->has_value() ? mapping::MappingMethodName(**method) + std::string(" ") : "") +
-        "map has been built: call BuildMap first"));
-  }
-  Result<std::string> bytes = EncodeOccupancy(map->grid, format);
-  if (!bytes.ok()) return ToGrpcStatus(bytes.status());
-  const mapping::GridGeometry& g = map->grid.geometry();
-  return StreamChunks(context, *bytes, *chunk_bytes, [&](v1::FileChunk&& chunk, bool first) {
-    v1::OccupancyChunk message;
-    *message.mutable_chunk() = std::move(chunk);
-    if (first) {
-      message.set_format(format);
-      message.set_resolution_m(g.resolution);
-      ToProto(Eigen::AlignedBox3d(g.origin, g.origin + g.size.cast<double>() * g.resolution),
-              message.mutable_bounds());
-    }
-    return writer->Write(message);
-  });
+  if (map == nullptr) return ToGrpcStatus(NoMap(*method));
+  return StreamOccupancy(context, map->grid, *format, *chunk_bytes, writer);
 }
 
 grpc::Status MappingService::QueryCollision(grpc::ServerContext*,
@@ -272,7 +170,8 @@ grpc::Status MappingService::QueryCollision(grpc::ServerContext*,
   }
   if (request->boxes_size() > kMaxBoxes) {
     return ToGrpcStatus(Status::InvalidArgument("boxes: " + std::to_string(request->boxes_size()) +
-                                                " boxes, at most 100000 per call"));
+                                                " boxes, at most " + std::to_string(kMaxBoxes) +
+                                                " per call (split larger queries)"));
   }
   std::vector<Eigen::AlignedBox3d> boxes;
   boxes.reserve(request->boxes_size());
@@ -283,12 +182,7 @@ grpc::Status MappingService::QueryCollision(grpc::ServerContext*,
     boxes.push_back(*box);
   }
   std::shared_ptr<const BuiltMap> map = mapper_->Map(*method);
-  if (map == nullptr) {
-    return ToGrpcStatus(Status::NotFound(
-        std::string("no ") +
-        (method->has_value() ? mapping::MappingMethodName(**method) + std::string(" ") : "") +
-        "map has been built: call BuildMap first"));
-  }
+  if (map == nullptr) return ToGrpcStatus(NoMap(*method));
   uint32_t collisions = 0, free = 0, unknown = 0;
   for (const Eigen::AlignedBox3d& box : boxes) {
     const v1::CollisionState state =

@@ -31,7 +31,7 @@ struct MappingServiceOptions {
   bool IsValid(std::string* why) const;
 };
 
-using services::ResolveCalibration;  // services/common/calibration_source.h
+using service_common::ResolveCalibration;  // services/common/calibration_source.h
 
 class MappingService final : public v1::Mapping::Service {
  public:
@@ -59,9 +59,9 @@ class MappingService final : public v1::Mapping::Service {
   grpc::Status GetStatus(grpc::ServerContext* context, const v1::MappingGetStatusRequest* request,
                          v1::MappingStatus* response) override;
 
-  // StartSession without an RPC (main.cc's start-up flags).
+  // StartSession without an RPC (main.cc's start-up flags) or with the call's deadline.
   grpc::Status ApplyStartSession(const v1::StartSessionRequest& request,
-                                 v1::MappingStatus* response);
+                                 const Termination& deadline, v1::MappingStatus* response);
 
  private:
   Mapper* mapper_;

@@ -3,14 +3,18 @@
 #include <cmath>
 #include <sstream>
 
-namespace mav::simulator {
+#include "mav/common/time.h"
+
+namespace mav::simulator_service {
+
+using service_common::Number;
 
 namespace {
 
-std::string Number(double v) {
-  std::ostringstream out;
-  out << v;
-  return out.str();
+void ToProto(const Eigen::Vector3d& v, v1::Vector3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
 }
 
 }  // namespace
@@ -89,14 +93,6 @@ void ToProto(const ScenarioInfo& info, v1::ScenarioSummary* out) {
   out->set_image_height(static_cast<uint32_t>(info.height));
 }
 
-void ToProto(const Stats& stats, v1::RuntimeStats* out) {
-  out->set_count(stats.count);
-  out->set_mean_ms(stats.mean_ms);
-  out->set_median_ms(stats.median_ms);
-  out->set_p95_ms(stats.p95_ms);
-  out->set_max_ms(stats.max_ms);
-}
-
 v1::SimulatorState ToProto(PlayerState state) {
   switch (state) {
     case PlayerState::kIdle:
@@ -158,4 +154,156 @@ void ToProto(const dataset::ImuNoise& noise, double rate_hz, v1::ImuNoise* out) 
   out->set_rate_hz(rate_hz);
 }
 
-}  // namespace mav::simulator
+// ---- Flight mode ------------------------------------------------------------------------------
+
+Result<FlightLoadRequest> FromProto(const v1::LoadFlightTaskRequest& request) {
+  FlightLoadRequest out;
+  switch (request.task_case()) {
+    case v1::LoadFlightTaskRequest::kBuiltin:
+      out.source = FlightLoadRequest::Source::kBuiltin;
+      out.value = request.builtin();
+      if (out.value.empty()) return Status::InvalidArgument("builtin: empty task name");
+      break;
+    case v1::LoadFlightTaskRequest::kYaml:
+      out.source = FlightLoadRequest::Source::kYaml;
+      out.value = request.yaml();
+      if (out.value.empty()) return Status::InvalidArgument("yaml: empty task file");
+      break;
+    case v1::LoadFlightTaskRequest::kPath:
+      out.source = FlightLoadRequest::Source::kPath;
+      out.value = request.path();
+      if (out.value.empty()) return Status::InvalidArgument("path: empty path");
+      break;
+    case v1::LoadFlightTaskRequest::TASK_NOT_SET:
+      return Status::InvalidArgument("task: set builtin (t3_1 ... t4_3), yaml or path");
+  }
+  out.map_path = request.map_path();
+  FlightConfig& c = out.config;
+  c.seed = request.seed();
+  c.lockstep = request.lockstep();
+  if (request.real_time_factor() != 0.0) c.real_time_factor = request.real_time_factor();
+  if (request.lockstep_timeout_s() != 0.0) c.lockstep_timeout_s = request.lockstep_timeout_s();
+  if (request.command_stale_s() != 0.0) c.command_stale_s = request.command_stale_s();
+  // The ranges (the task is checked once resolved).
+  if (std::string why; !c.OptionsValid(&why)) return Status::InvalidArgument(why);
+  return out;
+}
+
+Result<FlightRun> FromProto(const v1::StartFlightRequest& request) {
+  FlightRun run;
+  run.until_s = request.run_until_s();
+  run.pause_on_goal = request.pause_on_goal();
+  if (!std::isfinite(run.until_s) || run.until_s < 0) {
+    return Status::InvalidArgument("run_until_s: must be >= 0 and finite, got " +
+                                   Number(run.until_s));
+  }
+  return run;
+}
+
+v1::FlightState ToProto(FlightState state) {
+  switch (state) {
+    case FlightState::kIdle:
+      return v1::FLIGHT_STATE_IDLE;
+    case FlightState::kLoaded:
+      return v1::FLIGHT_STATE_LOADED;
+    case FlightState::kRunning:
+      return v1::FLIGHT_STATE_RUNNING;
+    case FlightState::kPaused:
+      return v1::FLIGHT_STATE_PAUSED;
+    case FlightState::kFinished:
+      return v1::FLIGHT_STATE_FINISHED;
+  }
+  return v1::FLIGHT_STATE_UNSPECIFIED;
+}
+
+void ToProto(const FlightConfig& config, v1::FlightTaskSummary* out) {
+  const dataset::FlightTask& task = config.task;
+  out->set_name(task.name);
+  out->set_kind(dataset::FlightTaskKindName(task.kind));
+  out->set_duration_s(task.duration_s);
+  out->set_imu_rate_hz(task.imu.rate_hz);
+  for (size_t i = 0; i < task.pose_sensors.size(); ++i) {
+    const dataset::FlightPoseSensorSpec& spec = task.pose_sensors[i];
+    v1::FlightPoseSensorInfo* info = out->add_pose_sensors();
+    info->set_frame_id("pose_sensor" + std::to_string(i));
+    info->set_rate_hz(spec.rate_hz);
+    info->set_delay_s(spec.delay_s);
+    info->set_position_sigma_m(spec.position_sigma_m);
+    info->set_orientation_sigma_rad(spec.orientation_sigma_rad);
+    ToProto(spec.T_body_sensor(), info->mutable_t_body_sensor());
+  }
+  for (const dataset::FlightGoal& goal : task.goals) {
+    v1::FlightGoalInfo* info = out->add_goals();
+    info->set_publish_s(goal.publish_s);
+    ToProto(goal.position, info->mutable_position());
+    info->set_yaw_rad(goal.yaw_rad);
+  }
+  ToProto(task.takeoff_position, out->mutable_takeoff_position());
+  out->set_map_path(task.map_path);
+  out->set_seed(config.seed);
+  out->set_lockstep(config.lockstep);
+  out->set_real_time_factor(config.lockstep ? 0.0 : config.real_time_factor);
+  out->set_lockstep_timeout_s(config.lockstep_timeout_s);
+  out->set_command_stale_s(config.command_stale_s);
+  out->set_rotor_count(static_cast<uint32_t>(config.simulation.vehicle.rotor_count));
+}
+
+void ToProto(const eval::TaskScore& score, v1::FlightScore* out) {
+  out->set_points(score.points);
+  out->set_max_points(score.max_points);
+  out->set_position_rms_m(score.position_rms_m);
+  out->set_angular_rate_rms_radps(score.angular_rate_rms_radps);
+  out->set_settling_time_s(score.settling_time_s);
+  out->set_all_settled(score.all_settled);
+  out->set_collisions(static_cast<uint32_t>(score.collisions));
+  for (const eval::GoalScore& g : score.goals) {
+    v1::FlightGoalScore* o = out->add_goals();
+    o->set_goal(g.goal);
+    o->set_from_s(g.from_s);
+    o->set_settled(g.settled);
+    o->set_settling_time_s(g.settling_time_s);
+    o->set_window_start_s(g.window_start_s);
+    o->set_position_rms_m(g.rms.position_rms_m);
+    o->set_angular_rate_rms_radps(g.rms.angular_rate_rms_radps);
+    o->set_position_points(g.position_points);
+    o->set_angular_rate_points(g.angular_rate_points);
+    o->set_settling_points(g.settling_points);
+    o->set_flight_time_s(g.flight_time_s);
+    o->set_mean_speed_mps(g.mean_speed_mps);
+    o->set_peak_speed_mps(g.peak_speed_mps);
+    o->set_path_length_m(g.path_length_m);
+  }
+}
+
+void ToProto(const FlightStatus& status, v1::FlightStatus* out) {
+  out->set_state(ToProto(status.state));
+  if (status.config.has_value()) ToProto(*status.config, out->mutable_task());
+  out->set_t_ns(status.t_ns);
+  out->set_steps(status.steps);
+  out->set_imu_published(status.imu_published);
+  out->set_poses_published(status.poses_published);
+  out->set_ground_truth_published(status.ground_truth_published);
+  out->set_commands_received(status.commands_received);
+  out->set_commands_rejected(status.commands_rejected);
+  out->set_stale_steps(status.stale_steps);
+  out->set_goal_index(status.goal_index);
+  for (const sim::Collision& c : status.collisions) {
+    v1::FlightCollision* o = out->add_collisions();
+    o->set_t_s(NsToSeconds(c.t_ns));
+    ToProto(c.p_world, o->mutable_position());
+    o->set_what(c.what);
+  }
+  out->set_lifted_off(status.lifted_off);
+  ToProto(status.position, out->mutable_position());
+  out->set_speed_factor(status.speed_factor);
+  ToProto(status.step_ms, out->mutable_step_ms());
+  ToProto(status.command_wait_ms, out->mutable_command_wait_ms());
+  out->set_pause_reason(status.pause_reason);
+  out->set_last_error(status.last_error);
+  if (status.score.has_value()) ToProto(*status.score, out->mutable_score());
+  out->set_min_clearance_m(status.min_clearance_m);
+  out->set_actuator_writers(status.actuator_writers);
+  out->set_dds_domain(status.dds_domain);
+}
+
+}  // namespace mav::simulator_service

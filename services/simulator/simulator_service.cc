@@ -1,100 +1,123 @@
 #include "services/simulator/simulator_service.h"
 
-#include <unistd.h>
-
 #include <algorithm>
+#include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
-#include <filesystem>
+#include <thread>
 
-#include "mav/common/file.h"
 #include "mav/common/log.h"
-#include "mav/sim/occupancy.h"
-#include "mav/transport/grpc_server.h"
+#include "mav/dataset/flight_task_io.h"
+#include "mav/sim/flight_task.h"
+#include "services/common/file_stream.h"
+#include "services/common/grpc_status.h"
 #include "services/simulator/convert.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 
 namespace {
 
-using transport::ToGrpcStatus;
+using service_common::CallTermination;
+using service_common::CheckDeadline;
+using service_common::ChunkSize;
+using service_common::OccupancyFormatFromProto;
+using service_common::StreamOccupancy;
+using service_common::ToGrpcStatus;
 
 constexpr double kDefaultResolutionM = 0.05;
-constexpr uint32_t kDefaultChunkBytes = 1 << 20;
-constexpr uint32_t kMinChunkBytes = 4096;
-constexpr uint32_t kMaxChunkBytes = 4 << 20;
+// The base of a task file without `base:`.
+constexpr char kDefaultTaskBase[] = "t3_1";
 
-// A temporary file path that is removed when the guard goes out of scope.
-class TempFile {
+// The flight mode without a data plane: publishes nowhere, receives nothing.
+class NullFlightIo : public FlightIo {
  public:
-  explicit TempFile(const std::string& suffix) {
-    std::string pattern =
-        (std::filesystem::temp_directory_path() / ("mav-occupancy-XXXXXX" + suffix)).string();
-    const int fd = mkstemps(pattern.data(), static_cast<int>(suffix.size()));
-    if (fd >= 0) {
-      close(fd);
-      path_ = pattern;
-    }
+  Status PublishFlightImu(uint64_t, const dataset::ImuSample&) override { return Status::Ok(); }
+  Status PublishFlightPose(uint64_t, const sim::PoseSample&, const std::string&, double,
+                           double) override {
+    return Status::Ok();
   }
-  ~TempFile() {
-    if (!path_.empty()) std::remove(path_.c_str());
+  Status PublishFlightGroundTruth(uint64_t, const dataset::GroundTruthState&) override {
+    return Status::Ok();
   }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
+  void DiscardCommands() override {}
+  std::optional<ActuatorInput> WaitForCommand(int64_t, int64_t, int64_t timeout_ns,
+                                              uint64_t*) override {
+    // Nothing ever arrives; sleep like a reader would, so a lock-step wait still times out.
+    if (timeout_ns > 0) std::this_thread::sleep_for(std::chrono::nanoseconds(timeout_ns));
+    return std::nullopt;
+  }
+  uint32_t ActuatorWriters() override { return 0; }
+  uint32_t ImuReaders() override { return 0; }
+  uint32_t domain() const override { return 0; }
 };
 
 }  // namespace
 
 bool SimulatorServiceOptions::IsValid(std::string* why) const {
-  if (max_occupancy_voxels <= 0) {
-    if (why != nullptr) *why = "max_occupancy_voxels: must be > 0";
+  if (max_occupancy_memory_mb <= 0) {
+    if (why != nullptr) *why = "max_occupancy_memory_mb: must be > 0";
     return false;
   }
   return true;
 }
 
-SimulatorService::SimulatorService(StreamSink* sink, SimulatorServiceOptions options)
-    : options_(options), player_(sink) {}
+SimulatorService::SimulatorService(StreamSink* sink, SimulatorServiceOptions options,
+                                   FlightIo* flight_io)
+    : options_(std::move(options)), player_(sink) {
+  if (flight_io == nullptr) {
+    null_flight_io_ = std::make_unique<NullFlightIo>();
+    flight_io = null_flight_io_.get();
+  }
+  flight_ = std::make_unique<Flight>(flight_io);
+}
 
-grpc::Status SimulatorService::LoadScenario(grpc::ServerContext*,
+void SimulatorService::Shutdown() {
+  flight_->Shutdown();
+  player_.Shutdown();
+}
+
+grpc::Status SimulatorService::LoadScenario(grpc::ServerContext* context,
                                             const v1::LoadScenarioRequest* request,
                                             v1::LoadScenarioResponse* response) {
   Result<LoadRequest> load = FromProto(*request);
   if (!load.ok()) return ToGrpcStatus(load.status());
   Result<std::unique_ptr<ScenarioSource>> source =
-      load->is_preset ? OpenPreset(load->preset) : OpenEuroc(load->euroc_directory);
+      load->is_preset ? sim::OpenPreset(load->preset) : sim::OpenEuroc(load->euroc_directory);
   if (!source.ok()) {
     MAV_LOG(kWarning) << "LoadScenario: " << source.status().ToString();
     return ToGrpcStatus(source.status());
   }
+  // Opening a preset takes a while: a client that gave up meanwhile must not replace the scenario.
+  if (Status s = CheckDeadline(*context, "LoadScenario"); !s.ok()) return ToGrpcStatus(s);
   std::shared_ptr<const ScenarioSource> shared = std::move(*source);
-  player_.Load(shared);
+  if (Status s = player_.Load(shared, CallTermination(*context)); !s.ok()) return ToGrpcStatus(s);
   ToProto(shared->info(), response->mutable_scenario());
   return grpc::Status::OK;
 }
 
-grpc::Status SimulatorService::Start(grpc::ServerContext*, const v1::SimulatorStartRequest* request,
+grpc::Status SimulatorService::Start(grpc::ServerContext* context,
+                                     const v1::SimulatorStartRequest* request,
                                      v1::SimulatorStatus* response) {
   Result<Pacing> pacing = FromProto(*request);
   if (!pacing.ok()) return ToGrpcStatus(pacing.status());
+  if (Status s = CheckDeadline(*context, "Start"); !s.ok()) return ToGrpcStatus(s);
+  if (flight_->running()) (void)flight_->Pause("the replay was started (Start)");
   Result<PlayerStatus> status = player_.Start(*pacing);
   if (!status.ok()) return ToGrpcStatus(status.status());
   ToProto(*status, response);
   return grpc::Status::OK;
 }
 
-grpc::Status SimulatorService::Pause(grpc::ServerContext*, const v1::SimulatorPauseRequest*,
+grpc::Status SimulatorService::Pause(grpc::ServerContext* context, const v1::SimulatorPauseRequest*,
                                      v1::SimulatorStatus* response) {
+  if (Status s = CheckDeadline(*context, "Pause"); !s.ok()) return ToGrpcStatus(s);
   Result<PlayerStatus> status = player_.Pause();
   if (!status.ok()) return ToGrpcStatus(status.status());
   ToProto(*status, response);
   return grpc::Status::OK;
 }
 
-grpc::Status SimulatorService::Step(grpc::ServerContext*, const v1::SimulatorStepRequest* request,
+grpc::Status SimulatorService::Step(grpc::ServerContext* context,
+                                    const v1::SimulatorStepRequest* request,
                                     v1::SimulatorStatus* response) {
   // The state is checked first so that Step(0) with nothing loaded reports the missing scenario.
   if (player_.GetStatus().state == PlayerState::kIdle) {
@@ -103,7 +126,8 @@ grpc::Status SimulatorService::Step(grpc::ServerContext*, const v1::SimulatorSte
   if (request->frames() == 0) {
     return ToGrpcStatus(Status::InvalidArgument("frames: must be >= 1, got 0"));
   }
-  Result<PlayerStatus> status = player_.Step(request->frames());
+  if (Status s = CheckDeadline(*context, "Step"); !s.ok()) return ToGrpcStatus(s);
+  Result<PlayerStatus> status = player_.Step(request->frames(), CallTermination(*context));
   if (!status.ok()) return ToGrpcStatus(status.status());
   ToProto(*status, response);
   return grpc::Status::OK;
@@ -136,78 +160,163 @@ grpc::Status SimulatorService::GetGroundTruthOccupancy(
   if (source == nullptr) {
     return ToGrpcStatus(Status::FailedPrecondition("no scenario loaded: call LoadScenario first"));
   }
-  const double resolution =
-      request->resolution_m() == 0.0 ? kDefaultResolutionM : request->resolution_m();
+  const sim::ScenarioInfo& info = source->info();
+  double resolution = request->resolution_m();
+  if (resolution == 0.0) {
+    resolution =
+        info.occupancy_resolution_m > 0 ? info.occupancy_resolution_m : kDefaultResolutionM;
+  }
   if (!std::isfinite(resolution) || resolution < 0.01 || resolution > 2.0) {
     return ToGrpcStatus(Status::InvalidArgument("resolution_m: must be in [0.01, 2] m, got " +
                                                 std::to_string(request->resolution_m())));
   }
-  const uint32_t chunk_bytes =
-      request->chunk_size() == 0 ? kDefaultChunkBytes : request->chunk_size();
-  if (chunk_bytes < kMinChunkBytes || chunk_bytes > kMaxChunkBytes) {
-    return ToGrpcStatus(
-        Status::InvalidArgument("chunk_size: must be in [4096, 4194304] bytes, got " +
-                                std::to_string(request->chunk_size())));
+  Result<uint32_t> chunk_bytes = ChunkSize(request->chunk_size());
+  if (!chunk_bytes.ok()) return ToGrpcStatus(chunk_bytes.status());
+  Result<v1::OccupancyFormat> format = OccupancyFormatFromProto(request->format());
+  if (!format.ok()) return ToGrpcStatus(format.status());
+  if (!info.has_ground_truth_occupancy) {
+    return ToGrpcStatus(Status::NotFound("no ground-truth occupancy for " + info.name +
+                                         " (a preset, or a data set written by mav-sim generate "
+                                         "with ground_truth/occupancy.mavocc)"));
   }
-  v1::OccupancyFormat format = request->format();
-  if (format == v1::OCCUPANCY_FORMAT_UNSPECIFIED) format = v1::OCCUPANCY_FORMAT_OCTOMAP_BT;
-  if (format != v1::OCCUPANCY_FORMAT_OCTOMAP_BT && format != v1::OCCUPANCY_FORMAT_MAVOCC) {
-    return ToGrpcStatus(Status::InvalidArgument("format: unknown value " +
-                                                std::to_string(static_cast<int>(format))));
+  Result<dataset::GridGeometry> geometry = source->OccupancyGeometry(resolution);
+  if (!geometry.ok()) return ToGrpcStatus(geometry.status());
+
+  // Refuse before allocating: the grid, and for a .bt answer OctoMap's tree of every known voxel.
+  const double voxels = static_cast<double>(geometry->num_voxels());
+  const double per_voxel = *format == v1::OCCUPANCY_FORMAT_OCTOMAP_BT
+                               ? 1.0 + SimulatorServiceOptions::kOctomapBytesPerVoxel
+                               : 1.0;
+  const double need = voxels * per_voxel;
+  const double limit = static_cast<double>(options_.max_occupancy_memory_mb) * 1024 * 1024;
+  {
+    std::lock_guard<std::mutex> lock(occupancy_mutex_);
+    if (need + static_cast<double>(occupancy_reserved_bytes_) > limit) {
+      return ToGrpcStatus(Status::ResourceExhausted(
+          "resolution_m: " + std::to_string(resolution) + " m gives " +
+          std::to_string(geometry->num_voxels()) + " voxels, ~" +
+          std::to_string(static_cast<int64_t>(need / (1024 * 1024))) + " MiB to answer in " +
+          v1::OccupancyFormat_Name(*format) + "; the server allows " +
+          std::to_string(options_.max_occupancy_memory_mb) + " MiB (" +
+          std::to_string(occupancy_reserved_bytes_ / (1024 * 1024)) +
+          " MiB in use by other calls): choose a coarser resolution or OCCUPANCY_FORMAT_MAVOCC"));
+    }
+    occupancy_reserved_bytes_ += static_cast<int64_t>(need);
   }
-  if (!source->info().has_ground_truth_occupancy) {
-    return ToGrpcStatus(Status::NotFound("no ground-truth occupancy for " + source->info().name +
-                                         " (only rendered presets have one)"));
-  }
-  const int64_t voxels = source->EstimateVoxels(resolution);
-  if (voxels > options_.max_occupancy_voxels) {
-    return grpc::Status(grpc::StatusCode::RESOURCE_EXHAUSTED,
-                        "resolution_m: " + std::to_string(resolution) + " m gives ~" +
-                            std::to_string(voxels) + " voxels, over the server's limit of " +
-                            std::to_string(options_.max_occupancy_voxels));
-  }
-  Result<sim::OccupancyGrid> grid = source->Occupancy(resolution);
+  struct Release {
+    SimulatorService* self;
+    int64_t bytes;
+    ~Release() {
+      std::lock_guard<std::mutex> lock(self->occupancy_mutex_);
+      self->occupancy_reserved_bytes_ -= bytes;
+    }
+  } release{this, static_cast<int64_t>(need)};
+  Result<dataset::OccupancyGrid> grid = source->Occupancy(resolution, CallTermination(*context));
   if (!grid.ok()) return ToGrpcStatus(grid.status());
-
-  const bool octomap = format == v1::OCCUPANCY_FORMAT_OCTOMAP_BT;
-  TempFile file(octomap ? ".bt" : ".mavocc");
-  if (file.path().empty()) {
-    return ToGrpcStatus(Status::IoError("cannot create a temporary file"));
+  if (Status s = CheckDeadline(*context, "GetGroundTruthOccupancy"); !s.ok()) {
+    return ToGrpcStatus(s);
   }
-  const Status written = octomap ? grid->WriteOctomap(file.path()) : grid->Write(file.path());
-  if (!written.ok()) return ToGrpcStatus(written);
-  Result<std::string> bytes = ReadFileToString(file.path());
-  if (!bytes.ok()) return ToGrpcStatus(bytes.status());
+  return StreamOccupancy(context, *grid, *format, *chunk_bytes, writer);
+}
 
-  const Eigen::Vector3d min = grid->origin();
-  const Eigen::Vector3d max = min + grid->size().cast<double>() * grid->resolution();
-  const uint64_t total = bytes->size();
-  uint64_t offset = 0;
-  do {
-    if (context->IsCancelled()) return grpc::Status(grpc::StatusCode::CANCELLED, "cancelled");
-    const uint64_t n = std::min<uint64_t>(chunk_bytes, total - offset);
-    v1::OccupancyChunk chunk;
-    chunk.mutable_chunk()->set_offset(offset);
-    chunk.mutable_chunk()->set_total_size(total);
-    chunk.mutable_chunk()->set_data(bytes->substr(offset, n));
-    chunk.mutable_chunk()->set_last(offset + n == total);
-    if (offset == 0) {
-      chunk.set_format(format);
-      chunk.set_resolution_m(grid->resolution());
-      v1::Box* box = chunk.mutable_bounds();
-      box->mutable_min()->set_x(min.x());
-      box->mutable_min()->set_y(min.y());
-      box->mutable_min()->set_z(min.z());
-      box->mutable_max()->set_x(max.x());
-      box->mutable_max()->set_y(max.y());
-      box->mutable_max()->set_z(max.z());
-    }
-    if (!writer->Write(chunk)) {
-      return grpc::Status(grpc::StatusCode::CANCELLED, "client went away");
-    }
-    offset += n;
-  } while (offset < total);
+// ---- Flight mode ------------------------------------------------------------------------------
+
+Result<dataset::FlightTask> SimulatorService::ResolveFlightTask(
+    const FlightLoadRequest& load) const {
+  const std::string plant_map = options_.plant_map_path;
+  const dataset::FlightTaskResolver resolve = [plant_map](const std::string& name) {
+    return sim::BuiltinFlightTask(name, plant_map);
+  };
+  Result<dataset::FlightTask> task = Status::Internal("unresolved");
+  switch (load.source) {
+    case FlightLoadRequest::Source::kBuiltin:
+      task = resolve(load.value);
+      // An unknown name is a bad request, not a missing resource.
+      if (!task.ok()) return Status::InvalidArgument("builtin: " + task.status().message());
+      break;
+    case FlightLoadRequest::Source::kYaml:
+      task = dataset::ParseFlightTaskYaml(load.value, "yaml", resolve, kDefaultTaskBase);
+      if (!task.ok()) return task.status();  // "yaml: <key>: ..."
+      break;
+    case FlightLoadRequest::Source::kPath:
+      task = dataset::ReadFlightTaskFile(load.value, resolve, kDefaultTaskBase);
+      if (!task.ok()) {
+        if (task.status().code() == StatusCode::kInvalidArgument) {
+          return Status::InvalidArgument("path: " + task.status().message());
+        }
+        return task.status();
+      }
+      break;
+  }
+  if (!load.map_path.empty()) task->map_path = load.map_path;
+  return task;
+}
+
+Result<std::shared_ptr<const sim::CollisionWorld>> SimulatorService::WorldFor(
+    const std::string& map_path) {
+  if (map_path.empty()) return std::shared_ptr<const sim::CollisionWorld>();
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  if (world_ != nullptr && world_path_ == map_path) return world_;
+  Result<std::unique_ptr<sim::CollisionWorld>> loaded = sim::LoadOctomapCollisionWorld(map_path);
+  if (!loaded.ok()) return loaded.status().WithContext("map " + map_path);
+  world_ = std::shared_ptr<const sim::CollisionWorld>(std::move(*loaded));
+  world_path_ = map_path;
+  return world_;
+}
+
+grpc::Status SimulatorService::ApplyLoadFlightTask(const v1::LoadFlightTaskRequest& request,
+                                                   const Termination& deadline,
+                                                   v1::FlightStatus* response) {
+  Result<FlightLoadRequest> load = FromProto(request);
+  if (!load.ok()) return ToGrpcStatus(load.status());
+  Result<dataset::FlightTask> task = ResolveFlightTask(*load);
+  if (!task.ok()) {
+    MAV_LOG(kWarning) << "LoadFlightTask: " << task.status().ToString();
+    return ToGrpcStatus(task.status());
+  }
+  load->config.task = std::move(*task);
+  Result<std::shared_ptr<const sim::CollisionWorld>> world = WorldFor(load->config.task.map_path);
+  if (!world.ok()) return ToGrpcStatus(world.status());
+  if (Status s = flight_->Load(load->config, *world, deadline); !s.ok()) return ToGrpcStatus(s);
+  ToProto(flight_->GetStatus(), response);
   return grpc::Status::OK;
 }
 
-}  // namespace mav::simulator
+grpc::Status SimulatorService::LoadFlightTask(grpc::ServerContext* context,
+                                              const v1::LoadFlightTaskRequest* request,
+                                              v1::FlightStatus* response) {
+  if (Status s = CheckDeadline(*context, "LoadFlightTask"); !s.ok()) return ToGrpcStatus(s);
+  return ApplyLoadFlightTask(*request, CallTermination(*context), response);
+}
+
+grpc::Status SimulatorService::StartFlight(grpc::ServerContext* context,
+                                           const v1::StartFlightRequest* request,
+                                           v1::FlightStatus* response) {
+  Result<FlightRun> run = FromProto(*request);
+  if (!run.ok()) return ToGrpcStatus(run.status());
+  if (Status s = CheckDeadline(*context, "StartFlight"); !s.ok()) return ToGrpcStatus(s);
+  if (player_.GetStatus().state == PlayerState::kRunning) (void)player_.Pause();
+  Result<FlightStatus> status = flight_->Start(*run);
+  if (!status.ok()) return ToGrpcStatus(status.status());
+  ToProto(*status, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status SimulatorService::PauseFlight(grpc::ServerContext* context,
+                                           const v1::PauseFlightRequest*,
+                                           v1::FlightStatus* response) {
+  if (Status s = CheckDeadline(*context, "PauseFlight"); !s.ok()) return ToGrpcStatus(s);
+  Result<FlightStatus> status = flight_->Pause();
+  if (!status.ok()) return ToGrpcStatus(status.status());
+  ToProto(*status, response);
+  return grpc::Status::OK;
+}
+
+grpc::Status SimulatorService::GetFlightStatus(grpc::ServerContext*,
+                                               const v1::GetFlightStatusRequest*,
+                                               v1::FlightStatus* response) {
+  ToProto(flight_->GetStatus(), response);
+  return grpc::Status::OK;
+}
+
+}  // namespace mav::simulator_service

@@ -7,6 +7,7 @@
 // Images: the first frames of the simulator's room-easy preset (raw EuRoC rig, rendered once);
 // ground truth from Scenario::StateAt.
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -33,7 +34,7 @@
 #include "services/localization/convert.h"
 #include "services/localization/dds_io.h"
 #include "services/localization/localization_service.h"
-#include "services/localization/pipeline.h"
+#include "services/localization/localizer.h"
 #include "services/simulator/simulator_service.h"
 
 namespace mav::localization_service {
@@ -101,7 +102,7 @@ bool StartsWith(const std::string& text, const std::string& prefix) {
 // Records every published pose; optionally blocks the worker inside PublishPose.
 class RecordingSink : public PoseSink {
  public:
-  Status PublishPose(const PoseOutput& pose, OutputFrame frame) override {
+  Status PublishPose(const RigPose& pose, OutputFrame frame) override {
     std::unique_lock<std::mutex> lock(mutex_);
     poses_.push_back(pose);
     frames_.push_back(frame);
@@ -113,7 +114,7 @@ class RecordingSink : public PoseSink {
     }
     return Status::Ok();
   }
-  std::vector<PoseOutput> poses() {
+  std::vector<RigPose> poses() {
     std::lock_guard<std::mutex> lock(mutex_);
     return poses_;
   }
@@ -130,7 +131,7 @@ class RecordingSink : public PoseSink {
  private:
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::vector<PoseOutput> poses_;
+  std::vector<RigPose> poses_;
   std::vector<OutputFrame> frames_;
   bool block_ = false;
   bool blocked_ = false;
@@ -372,9 +373,9 @@ TEST_F(LocalizationContractTest, ConfigureReadsAnEurocDirectory) {
 
 // A simulator service on a real loopback port as the calibration source.
 TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
-  class NullSink : public simulator::StreamSink {
+  class NullSink : public simulator_service::StreamSink {
    public:
-    Status PublishStereo(uint64_t, const simulator::RenderedFrame&, bool) override {
+    Status PublishStereo(uint64_t, const simulator_service::RenderedFrame&, bool) override {
       return Status::Ok();
     }
     Status PublishImu(uint64_t, const dataset::ImuSample&) override { return Status::Ok(); }
@@ -386,7 +387,7 @@ TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
     uint32_t ImuSubscribers() override { return 0; }
     uint32_t domain() const override { return 0; }
   } null_sink;
-  simulator::SimulatorService simulator(&null_sink);
+  simulator_service::SimulatorService simulator(&null_sink);
   auto simulator_server = transport::GrpcServer::Start(transport::ServerOptions{}, {&simulator});
   ASSERT_TRUE(simulator_server.ok()) << simulator_server.status().ToString();
 
@@ -397,12 +398,12 @@ TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
   EXPECT_EQ(status.error_code(), StatusCode::FAILED_PRECONDITION) << status.error_message();
   EXPECT_TRUE(StartsWith(status.error_message(), "calibration.simulator_address:"));
 
-  simulator::PresetRequest preset;
+  sim::PresetRequest preset;
   preset.name = "room-easy";
   preset.frames = 5;
-  auto source = simulator::OpenPreset(preset);
+  auto source = sim::OpenPreset(preset);
   ASSERT_TRUE(source.ok()) << source.status().ToString();
-  simulator.player().Load(std::move(*source));
+  ASSERT_TRUE(simulator.player().Load(std::move(*source)).ok());
   v1::LocalizationStatus configured;
   status = Configure(request, &configured);
   ASSERT_TRUE(status.ok()) << status.error_message();
@@ -616,7 +617,7 @@ TEST_F(LocalizationContractTest, AFullQueueRejectsUnaryRequestsAndDropsLiveFrame
   live.t_ns = TestFrames().scenario.FrameTimeNs(3);
   live.left = TestFrames().left[3];
   live.right = TestFrames().right[3];
-  EXPECT_EQ(localizer_->SubmitLive(live), SubmitOutcome::kDropped);
+  EXPECT_EQ(localizer_->SubmitLive(live).code(), mav::StatusCode::kResourceExhausted);
   EXPECT_EQ(GetStatus().frames_dropped(), 1u);
 
   sink_.SetBlocking(false);
@@ -625,22 +626,22 @@ TEST_F(LocalizationContractTest, AFullQueueRejectsUnaryRequestsAndDropsLiveFrame
   // Now live frames queue; a second one while the first waits drops the older one.
   sink_.SetBlocking(true);
   live.t_ns = TestFrames().scenario.FrameTimeNs(3);
-  EXPECT_EQ(localizer_->SubmitLive(live), SubmitOutcome::kQueued);
+  EXPECT_TRUE(localizer_->SubmitLive(live).ok());
   ASSERT_TRUE(sink_.WaitUntilBlocked(std::chrono::seconds(20)));
   live.t_ns = TestFrames().scenario.FrameTimeNs(4);
   live.left = TestFrames().left[4];
   live.right = TestFrames().right[4];
-  EXPECT_EQ(localizer_->SubmitLive(live), SubmitOutcome::kQueued);
+  EXPECT_TRUE(localizer_->SubmitLive(live).ok());
   live.t_ns = TestFrames().scenario.FrameTimeNs(5);
   live.left = TestFrames().left[5];
   live.right = TestFrames().right[5];
-  EXPECT_EQ(localizer_->SubmitLive(live), SubmitOutcome::kQueuedDroppedOldest);
+  EXPECT_TRUE(localizer_->SubmitLive(live).ok());  // drops the older live frame
   // A malformed live frame is counted as rejected.
   StereoInput bad;
   bad.t_ns = TestFrames().scenario.FrameTimeNs(6);
   bad.left = cv::Mat(10, 10, CV_8UC1, cv::Scalar(0));
   bad.right = bad.left;
-  EXPECT_EQ(localizer_->SubmitLive(bad), SubmitOutcome::kRejected);
+  EXPECT_EQ(localizer_->SubmitLive(bad).code(), mav::StatusCode::kInvalidArgument);
   sink_.SetBlocking(false);
   const auto done = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (GetStatus().frames_processed() < 4 && std::chrono::steady_clock::now() < done) {
@@ -651,6 +652,65 @@ TEST_F(LocalizationContractTest, AFullQueueRejectsUnaryRequestsAndDropsLiveFrame
   EXPECT_EQ(status.frames_dropped(), 2u);
   EXPECT_EQ(status.frames_rejected(), 1u);
   EXPECT_EQ(status.last_pose().t_ns(), TestFrames().scenario.FrameTimeNs(5));
+}
+
+// A value echoed into an error is quoted short: a 10 KB frame name stays INVALID_ARGUMENT (gRPC
+// refuses metadata above ~8 KB and would have turned it into RESOURCE_EXHAUSTED), and the message
+// names the value's size instead of repeating it.
+TEST_F(LocalizationContractTest, AHugeInvalidValueIsStillInvalidArgumentWithAShortMessage) {
+  auto request = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_PIXEL);
+  request.set_output_frame(std::string(10000, 'x'));
+  auto channel = grpc::CreateChannel(server_->target(), grpc::InsecureChannelCredentials());
+  auto stub = v1::Localization::NewStub(channel);
+  grpc::ClientContext context;
+  SetDeadline(&context);
+  v1::LocalizationStatus status;
+  const grpc::Status rpc = stub->Configure(&context, request, &status);
+  ExpectInvalid(rpc, "output_frame:");
+  EXPECT_THAT(rpc.error_message(), ::testing::HasSubstr("...' (10000 bytes)"));
+  EXPECT_LT(rpc.error_message().size(), 200u);
+}
+
+// A calibration source that answers but is no simulator: UNAVAILABLE with a reason.
+TEST_F(LocalizationContractTest, ACalibrationSourceThatIsNoSimulatorGivesAReason) {
+  auto request = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_PIXEL);
+  request.mutable_calibration()->set_simulator_address(server_->target());  // a localization
+  const grpc::Status rpc = Configure(request);
+  EXPECT_EQ(rpc.error_code(), StatusCode::UNAVAILABLE);
+  EXPECT_TRUE(StartsWith(rpc.error_message(), "calibration.simulator_address: GetCalibration at "))
+      << rpc.error_message();
+  EXPECT_NE(rpc.error_message().find("UNIMPLEMENTED"), std::string::npos) << rpc.error_message();
+}
+
+// Calls whose deadline passes while the worker is busy change nothing: the frame is withdrawn,
+// the configuration stays.
+TEST_F(LocalizationContractTest, CallsPastTheirDeadlineChangeNothing) {
+  ASSERT_TRUE(Configure(ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_PIXEL)).ok());
+  sink_.SetBlocking(true);  // the worker stops inside the first frame's publish
+  auto first = std::async(std::launch::async, [&] { return Process(PairRequest(0)); });
+  ASSERT_TRUE(sink_.WaitUntilBlocked(std::chrono::seconds(20)));
+  {
+    grpc::ClientContext context;
+    SetDeadline(&context, 0.3);
+    v1::ProcessStereoPairResponse response;
+    const grpc::Status late = stub_->ProcessStereoPair(&context, PairRequest(1), &response);
+    EXPECT_EQ(late.error_code(), StatusCode::DEADLINE_EXCEEDED) << late.error_message();
+  }
+  std::future<grpc::Status> configure = std::async(std::launch::async, [&] {
+    grpc::ClientContext context;
+    SetDeadline(&context, 0.3);
+    v1::LocalizationStatus status;
+    return stub_->Configure(&context, ConfigureRequest(v1::LOCALIZATION_METHOD_DENSE), &status);
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  sink_.SetBlocking(false);
+  EXPECT_TRUE(first.get().ok());
+  EXPECT_EQ(configure.get().error_code(), StatusCode::DEADLINE_EXCEEDED);
+  const v1::LocalizationStatus status = GetStatus();
+  EXPECT_EQ(status.method(), v1::LOCALIZATION_METHOD_SPARSE_PIXEL) << "the late Configure applied";
+  EXPECT_EQ(status.frames_processed(), 1u) << "the late frame was processed";
+  // The withdrawn frame's time stamp may come again (a retry), and is accepted.
+  EXPECT_TRUE(Process(PairRequest(1)).ok());
 }
 
 // ---- GetTrajectory / Reset ----------------------------------------------------------------------
@@ -778,7 +838,7 @@ TEST_F(LocalizationContractTest, LoopbackPortAnswersHealthChecksAndRpcs) {
 // ---- DDS conversions ----------------------------------------------------------------------------
 
 TEST(LocalizationDdsTest, PoseSamplesCarryTheContractFields) {
-  PoseOutput pose;
+  RigPose pose;
   pose.t_ns = 123;
   pose.T_world_out =
       geometry::SE3(Eigen::Quaterniond(0.5, 0.5, 0.5, 0.5), Eigen::Vector3d(1.0, 2.0, 3.0));
@@ -813,7 +873,7 @@ TEST(LocalizationDdsTest, StereoFramesAreCheckedBeforeUse) {
   frame.right._length = 12;
   frame.crc32 = StereoCrc32(left.data(), 12, right.data(), 12);
   EXPECT_TRUE(CheckStereoFrame(frame).ok());
-  const StereoInput input = FromDds(frame);
+  const dataset::StereoPair input = service_common::StereoFromDds(frame);
   EXPECT_EQ(input.left.cols, 4);
   EXPECT_EQ(input.right.at<uint8_t>(2, 3), 9);
   frame.crc32 ^= 1;

@@ -19,13 +19,14 @@
 #include <opencv2/core/mat.hpp>
 
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/sim/scenario.h"
 #include "mav/transport/grpc_server.h"
 #include "mav/v1/simulator.grpc.pb.h"
 #include "services/simulator/dds_io.h"
 #include "services/simulator/simulator_service.h"
 
-namespace mav::simulator {
+namespace mav::simulator_service {
 namespace {
 
 using grpc::StatusCode;
@@ -294,7 +295,8 @@ TEST_F(SimulatorContractTest, StartStepPauseAndCalibrationNeedALoadedScenario) {
 
 TEST_F(SimulatorContractTest, StartRejectsBadPacingNamingTheField) {
   ASSERT_TRUE(LoadPreset("room-easy", 4).ok());
-  for (double factor : {-1.0, 0.0, std::numeric_limits<double>::quiet_NaN(),
+  // 1e-15 once overflowed the pacing arithmetic and published at full speed; 1e4 is no pacing.
+  for (double factor : {-1.0, 0.0, 1e-15, 1e4, std::numeric_limits<double>::quiet_NaN(),
                         std::numeric_limits<double>::infinity()}) {
     v1::SimulatorStatus status;
     const grpc::Status rpc = StartRate(factor, &status);
@@ -480,6 +482,53 @@ TEST_F(SimulatorContractTest, GetGroundTruthOccupancyValidatesAndStreamsChunks) 
   EXPECT_EQ(bytes.rfind("# Octomap OcTree binary file", 0), 0u);
 }
 
+// 1 cm of a room as OctoMap once took 11 GB and ran on after the client's deadline: the
+// answer's memory is estimated first and refused before anything is computed.
+TEST_F(SimulatorContractTest, GetGroundTruthOccupancyRefusesWhatWouldExhaustMemory) {
+  ASSERT_TRUE(LoadPreset("room-easy", 2).ok());
+  v1::GetGroundTruthOccupancyRequest request;
+  request.set_resolution_m(0.01);
+  request.set_format(v1::OCCUPANCY_FORMAT_OCTOMAP_BT);
+  grpc::ClientContext context;
+  SetDeadline(&context, 60.0);
+  const auto start = std::chrono::steady_clock::now();
+  auto reader = stub_->GetGroundTruthOccupancy(&context, request);
+  v1::OccupancyChunk chunk;
+  while (reader->Read(&chunk)) {
+  }
+  const grpc::Status rpc = reader->Finish();
+  EXPECT_EQ(rpc.error_code(), StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(rpc.error_message().rfind("resolution_m: 0.01", 0), 0u) << rpc.error_message();
+  EXPECT_NE(rpc.error_message().find("MiB"), std::string::npos) << rpc.error_message();
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
+}
+
+// A computation the client gave up on stops: the deadline reaches the occupancy computation.
+TEST_F(SimulatorContractTest, GetGroundTruthOccupancyStopsAtTheDeadline) {
+  ASSERT_TRUE(LoadPreset("room-hard", 2).ok());
+  v1::GetGroundTruthOccupancyRequest request;
+  request.set_resolution_m(0.01);  // ~190 M voxels as .mavocc: within the memory limit, slow
+  request.set_format(v1::OCCUPANCY_FORMAT_MAVOCC);
+  grpc::ClientContext context;
+  SetDeadline(&context, 0.3);
+  const auto start = std::chrono::steady_clock::now();
+  auto reader = stub_->GetGroundTruthOccupancy(&context, request);
+  v1::OccupancyChunk chunk;
+  while (reader->Read(&chunk)) {
+  }
+  EXPECT_EQ(reader->Finish().error_code(), StatusCode::DEADLINE_EXCEEDED);
+  // The server is free again soon after (the computation stopped): a small request answers.
+  request.set_resolution_m(0.2);
+  grpc::ClientContext small;
+  SetDeadline(&small, 10.0);
+  auto second = stub_->GetGroundTruthOccupancy(&small, request);
+  std::string bytes;
+  while (second->Read(&chunk)) bytes += chunk.chunk().data();
+  EXPECT_TRUE(second->Finish().ok());
+  EXPECT_FALSE(bytes.empty());
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(8));
+}
+
 // ---- A recorded EuRoC directory replays through the same path -----------------------------------
 
 TEST_F(SimulatorContractTest, AnEurocDirectoryReplaysTheSameFramesAsThePreset) {
@@ -506,6 +555,11 @@ TEST_F(SimulatorContractTest, AnEurocDirectoryReplaysTheSameFramesAsThePreset) {
     ASSERT_TRUE((*writer)->WriteGroundTruth(scenario->GroundTruth()).ok());
     ASSERT_TRUE((*writer)->Close().ok());
   }
+  // As mav-sim generate writes it: the exact occupancy beside mav0/.
+  const dataset::OccupancyGrid occupancy = scenario->ComputeOccupancy(0.1);
+  std::filesystem::create_directories(dir / "ground_truth");
+  ASSERT_TRUE(
+      dataset::WriteMavocc(occupancy, (dir / "ground_truth" / "occupancy.mavocc").string()).ok());
 
   v1::LoadScenarioResponse response;
   grpc::Status rpc = LoadEuroc(dir.string(), &response);
@@ -513,7 +567,7 @@ TEST_F(SimulatorContractTest, AnEurocDirectoryReplaysTheSameFramesAsThePreset) {
   EXPECT_FALSE(response.scenario().is_preset());
   EXPECT_EQ(response.scenario().frames(), 4);
   EXPECT_TRUE(response.scenario().has_ground_truth());
-  EXPECT_FALSE(response.scenario().has_ground_truth_occupancy());
+  EXPECT_TRUE(response.scenario().has_ground_truth_occupancy());
   v1::SimulatorStatus status;
   ASSERT_TRUE(Step(4, &status).ok());
   const auto from_euroc = sink_.events('s');
@@ -529,15 +583,34 @@ TEST_F(SimulatorContractTest, AnEurocDirectoryReplaysTheSameFramesAsThePreset) {
   }
   EXPECT_EQ(sink_.events('i').size(), 2 * imu_from_euroc);
 
-  // The EuRoC directory has no occupancy map: NOT_FOUND.
+  // The recorded occupancy is served as it is (resolution 0 = the file's); another resolution is
+  // refused naming the field.
   ASSERT_TRUE(LoadEuroc(dir.string(), &response).ok());
-  grpc::ClientContext context;
-  SetDeadline(&context);
-  auto reader = stub_->GetGroundTruthOccupancy(&context, v1::GetGroundTruthOccupancyRequest());
-  v1::OccupancyChunk chunk;
-  while (reader->Read(&chunk)) {
-  }
-  EXPECT_EQ(reader->Finish().error_code(), StatusCode::NOT_FOUND);
+  auto occupancy_of = [&](double resolution, std::string* bytes) {
+    v1::GetGroundTruthOccupancyRequest request;
+    request.set_resolution_m(resolution);
+    request.set_format(v1::OCCUPANCY_FORMAT_MAVOCC);
+    grpc::ClientContext context;
+    SetDeadline(&context);
+    auto reader = stub_->GetGroundTruthOccupancy(&context, request);
+    v1::OccupancyChunk chunk;
+    while (reader->Read(&chunk)) bytes->append(chunk.chunk().data());
+    return reader->Finish();
+  };
+  std::string bytes;
+  ASSERT_TRUE(occupancy_of(0.0, &bytes).ok());
+  Result<dataset::OccupancyGrid> served = dataset::DecodeMavocc(bytes, "served");
+  ASSERT_TRUE(served.ok()) << served.status().ToString();
+  EXPECT_EQ(served->states(), occupancy.states());
+  bytes.clear();
+  const grpc::Status other = occupancy_of(0.05, &bytes);
+  EXPECT_EQ(other.error_code(), StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(other.error_message().rfind("resolution_m:", 0), 0u) << other.error_message();
+  // Without the file: NOT_FOUND.
+  std::filesystem::remove_all(dir / "ground_truth");
+  ASSERT_TRUE(LoadEuroc(dir.string(), &response).ok());
+  EXPECT_FALSE(response.scenario().has_ground_truth_occupancy());
+  EXPECT_EQ(occupancy_of(0.0, &bytes).error_code(), StatusCode::NOT_FOUND);
   std::filesystem::remove_all(dir);
 }
 
@@ -600,8 +673,33 @@ TEST_F(SimulatorContractTest, AShortDeadlineExpiresOnALongStep) {
   const auto elapsed = std::chrono::steady_clock::now() - start;
   EXPECT_EQ(rpc.error_code(), StatusCode::DEADLINE_EXCEEDED);
   EXPECT_LT(elapsed, std::chrono::seconds(2)) << "the client must not wait for the server";
-  // The server finishes the step it accepted.
-  EXPECT_EQ(WaitForState(v1::SIMULATOR_STATE_PAUSED).frames_published(), 60u);
+  // The deadline stops the step too: the frames published before it stay published, no more.
+  const v1::SimulatorStatus paused = WaitForState(v1::SIMULATOR_STATE_PAUSED);
+  EXPECT_LT(paused.frames_published(), 60u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(WaitForState(v1::SIMULATOR_STATE_PAUSED).frames_published(), paused.frames_published());
+}
+
+// A LoadScenario whose deadline passes while the player is busy (a long Step) changes nothing.
+TEST_F(SimulatorContractTest, ALoadScenarioPastItsDeadlineChangesNothing) {
+  ASSERT_TRUE(LoadPreset("room-easy", 40).ok());
+  std::thread stepper([&] {
+    v1::SimulatorStatus status;
+    EXPECT_TRUE(Step(40, &status).ok());
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the step holds the player
+  v1::LoadScenarioRequest request;
+  request.mutable_preset()->set_name("room-medium");
+  request.mutable_preset()->set_frames(4);
+  grpc::ClientContext context;
+  SetDeadline(&context, 0.3);
+  v1::LoadScenarioResponse response;
+  const grpc::Status rpc = stub_->LoadScenario(&context, request, &response);
+  stepper.join();
+  EXPECT_EQ(rpc.error_code(), StatusCode::DEADLINE_EXCEEDED) << rpc.error_message();
+  const v1::SimulatorStatus status = GetStatus();
+  EXPECT_EQ(status.scenario().name(), "room-easy");
+  EXPECT_EQ(status.frames_published(), 40u);
 }
 
 TEST(SimulatorTransportTest, CallingAPortWithoutServerFailsWithinTheDeadline) {
@@ -627,4 +725,4 @@ TEST(SimulatorTransportTest, CallingAPortWithoutServerFailsWithinTheDeadline) {
 }
 
 }  // namespace
-}  // namespace mav::simulator
+}  // namespace mav::simulator_service

@@ -180,14 +180,14 @@ TEST(DdsTest, TypedWriteAndLoanedTakeInOneProcess) {
   constexpr int kFrames = 5;
   std::vector<uint32_t> crcs;
   for (int k = 0; k < kFrames; ++k) {
-    simulator::RenderedFrame frame;
+    simulator_service::RenderedFrame frame;
     frame.t_ns = 1000 + k;
     frame.left = cv::Mat(480, 752, CV_8UC1);
     frame.right = cv::Mat(480, 752, CV_8UC1);
     rng.fill(frame.left, cv::RNG::UNIFORM, 0, 256);
     rng.fill(frame.right, cv::RNG::UNIFORM, 0, 256);
     mav_dds_StereoFrame sample;
-    simulator::FillStereoFrame(k, frame, false, 0, &sample);
+    simulator_service::FillStereoFrame(k, frame, false, 0, &sample);
     crcs.push_back(sample.crc32);
     ASSERT_TRUE(writer->Write(sample).ok());
   }
@@ -205,7 +205,7 @@ TEST(DdsTest, TypedWriteAndLoanedTakeInOneProcess) {
       EXPECT_EQ(frame.sequence_number, static_cast<uint64_t>(received));
       EXPECT_EQ(frame.t_ns, 1000 + received);
       EXPECT_EQ(frame.crc32, crcs[received]);
-      EXPECT_TRUE(simulator::CheckStereoFrame(frame).ok());
+      EXPECT_TRUE(simulator_service::CheckStereoFrame(frame).ok());
       EXPECT_STREQ(frame.left_camera_id, "cam0");
       ++received;
     }
@@ -217,18 +217,18 @@ TEST(DdsTest, TypedWriteAndLoanedTakeInOneProcess) {
 }
 
 TEST(DdsTest, CheckStereoFrameNamesTheCorruptField) {
-  simulator::RenderedFrame frame;
+  simulator_service::RenderedFrame frame;
   frame.left = cv::Mat(4, 6, CV_8UC1, cv::Scalar(1));
   frame.right = cv::Mat(4, 6, CV_8UC1, cv::Scalar(2));
   mav_dds_StereoFrame sample;
-  simulator::FillStereoFrame(9, frame, true, 0, &sample);
-  EXPECT_TRUE(simulator::CheckStereoFrame(sample).ok());
+  simulator_service::FillStereoFrame(9, frame, true, 0, &sample);
+  EXPECT_TRUE(simulator_service::CheckStereoFrame(sample).ok());
   frame.right.at<uint8_t>(3, 5) = 7;  // the sample borrows the buffer: a flipped byte
-  Status s = simulator::CheckStereoFrame(sample);
+  Status s = simulator_service::CheckStereoFrame(sample);
   EXPECT_EQ(s.code(), StatusCode::kDataLoss);
   EXPECT_NE(s.message().find("crc32"), std::string::npos) << s.message();
   sample.left._length = 5;
-  s = simulator::CheckStereoFrame(sample);
+  s = simulator_service::CheckStereoFrame(sample);
   EXPECT_NE(s.message().find("left: 5 bytes"), std::string::npos) << s.message();
 }
 

@@ -149,7 +149,7 @@ TEST(DdsLoopbackTest, ASubscriberInAnotherProcessReceivesEveryStereoFrameIntact)
 
   transport::DdsOptions options;
   options.domain = domain;
-  auto sink = simulator::DdsStreamSink::Create(options);
+  auto sink = simulator_service::DdsStreamSink::Create(options);
   ASSERT_TRUE(sink.ok()) << sink.status().ToString();
   const auto match_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
   while ((*sink)->StereoSubscribers() < 1 && std::chrono::steady_clock::now() < match_deadline) {
@@ -161,7 +161,7 @@ TEST(DdsLoopbackTest, ASubscriberInAnotherProcessReceivesEveryStereoFrameIntact)
   cv::RNG rng(42);
   const int64_t start_ns = MonotonicNowNs();
   for (int k = 0; k < kFrames; ++k) {
-    simulator::RenderedFrame frame;
+    simulator_service::RenderedFrame frame;
     frame.index = k;
     frame.t_ns = 1'000'000'000 + k * 50'000'000LL;
     frame.left = cv::Mat(480, 752, CV_8UC1);
@@ -278,7 +278,7 @@ TEST(DdsLoopbackTest, SimulatorBinaryStreamsAScenarioEndToEnd) {
       if (!samples->valid(i)) continue;
       const mav_dds_StereoFrame& frame = (*samples)[i];
       EXPECT_EQ(frame.sequence_number, static_cast<uint64_t>(received)) << "frames out of order";
-      const Status check = simulator::CheckStereoFrame(frame);
+      const Status check = simulator_service::CheckStereoFrame(frame);
       EXPECT_TRUE(check.ok()) << check.message();
       EXPECT_EQ(frame.width, 752u);
       EXPECT_EQ(frame.height, 480u);

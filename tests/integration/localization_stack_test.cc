@@ -34,19 +34,12 @@
 #include "mav/v1/localization.grpc.pb.h"
 #include "mav/v1/simulator.grpc.pb.h"
 #include "mav_state.h"
-#include "tests/common/stack_process.h"
-#include "tests/common/test_domain.h"
+#include "tests/common/stack_fixture.h"
 
 namespace mav {
 namespace {
 
-const std::string kBinDir = std::string(MAV_BINARY_DIR) + "/bin";
-
-using ::mav::test_support::TestDomain;  // tests/common/test_domain.h
-
-using ::mav::test_support::Child;  // tests/common/stack_process.h
-using ::mav::test_support::FreeTcpPort;
-using ::mav::test_support::WaitServing;
+using ::mav::test_support::Stack;  // tests/common/stack_fixture.h
 
 geometry::SE3 PoseOf(const mav_dds_Vector3& p, const mav_dds_Quaternion& q) {
   return geometry::SE3(Eigen::Quaterniond(q.w, q.x, q.y, q.z), Eigen::Vector3d(p.x, p.y, p.z));
@@ -74,26 +67,11 @@ int FramesFromEnv() {
 TEST(LocalizationStackTest, PosesFromTheStackFollowTheGroundTruth) {
   const int kFrames = FramesFromEnv();
   const v1::LocalizationMethod method = MethodFromEnv();
-  const int64_t domain = TestDomain(37);
-  const int sim_port = FreeTcpPort();
-  int loc_port = FreeTcpPort();
-  while (loc_port == sim_port) loc_port = FreeTcpPort();
-  const std::string sim_target = "127.0.0.1:" + std::to_string(sim_port);
-  const std::string loc_target = "127.0.0.1:" + std::to_string(loc_port);
-  const std::string logs = std::string(MAV_BINARY_DIR) + "/Testing";
-  std::system(("mkdir -p " + logs).c_str());
-  const std::string tag = std::to_string(::getpid());
-  const std::string sim_log = logs + "/loc-stack-simulator-" + tag + ".log";
-  const std::string loc_log = logs + "/loc-stack-localization-" + tag + ".log";
-  Child simulator({kBinDir + "/mav-simulator", "--port", std::to_string(sim_port), "--dds-domain",
-                   std::to_string(domain)},
-                  sim_log);
-  Child localization({kBinDir + "/mav-localization", "--port", std::to_string(loc_port),
-                      "--dds-domain", std::to_string(domain)},
-                     loc_log);
-  ASSERT_TRUE(simulator.running() && localization.running());
-  ASSERT_TRUE(WaitServing(sim_target, "mav.v1.Simulator")) << "see " << sim_log;
-  ASSERT_TRUE(WaitServing(loc_target, "mav.v1.Localization")) << "see " << loc_log;
+  Stack stack(/*domain_key=*/37);
+  const std::string sim_target = stack.Start("mav-simulator", "mav.v1.Simulator");
+  ASSERT_FALSE(sim_target.empty()) << "see " << stack.Log("mav-simulator");
+  const std::string loc_target = stack.Start("mav-localization", "mav.v1.Localization");
+  ASSERT_FALSE(loc_target.empty()) << "see " << stack.Log("mav-localization");
 
   auto sim =
       v1::Simulator::NewStub(grpc::CreateChannel(sim_target, grpc::InsecureChannelCredentials()));
@@ -126,7 +104,7 @@ TEST(LocalizationStackTest, PosesFromTheStackFollowTheGroundTruth) {
 
   // The test's subscribers: every pose and every ground-truth state.
   transport::DdsOptions options;
-  options.domain = domain;
+  options.domain = stack.domain();
   auto participant = transport::Participant::Create(options);
   ASSERT_TRUE(participant.ok()) << participant.status().ToString();
   auto pose_topic = transport::Topic<mav_dds_PoseWithCovariance>::Create(
@@ -218,7 +196,7 @@ TEST(LocalizationStackTest, PosesFromTheStackFollowTheGroundTruth) {
                   << "\nlocalization: " << loc_status.ShortDebugString();
   }
   ASSERT_EQ(static_cast<int>(poses.size()) + (kFrames > 100 ? dropped : 0), kFrames)
-      << "every frame gives a pose; see " << loc_log;
+      << "every frame gives a pose; see " << stack.Log("mav-localization");
   const int received = static_cast<int>(poses.size());
 
   // Compare: the estimate's world is the first frame's body (initial pose identity).
@@ -280,14 +258,16 @@ TEST(LocalizationStackTest, PosesFromTheStackFollowTheGroundTruth) {
   }
 
   // Both shut down cleanly on SIGTERM.
-  localization.Signal(SIGTERM);
-  simulator.Signal(SIGTERM);
-  const std::optional<int> loc_exit = localization.Wait(std::chrono::seconds(10));
-  const std::optional<int> sim_exit = simulator.Wait(std::chrono::seconds(10));
+  stack.Process("mav-localization")->Signal(SIGTERM);
+  stack.Process("mav-simulator")->Signal(SIGTERM);
+  const std::optional<int> loc_exit =
+      stack.Process("mav-localization")->Wait(std::chrono::seconds(10));
+  const std::optional<int> sim_exit =
+      stack.Process("mav-simulator")->Wait(std::chrono::seconds(10));
   ASSERT_TRUE(loc_exit.has_value()) << "mav-localization ignored SIGTERM";
   ASSERT_TRUE(sim_exit.has_value()) << "mav-simulator ignored SIGTERM";
-  EXPECT_EQ(*loc_exit, 0) << "see " << loc_log;
-  EXPECT_EQ(*sim_exit, 0) << "see " << sim_log;
+  EXPECT_EQ(*loc_exit, 0) << "see " << stack.Log("mav-localization");
+  EXPECT_EQ(*sim_exit, 0) << "see " << stack.Log("mav-simulator");
 }
 
 }  // namespace

@@ -38,19 +38,12 @@
 #include "mav/transport/grpc_server.h"
 #include "mav/v1/mapping.grpc.pb.h"
 #include "mav/v1/simulator.grpc.pb.h"
-#include "tests/common/stack_process.h"
-#include "tests/common/test_domain.h"
+#include "tests/common/stack_fixture.h"
 
 namespace mav {
 namespace {
 
-const std::string kBinDir = std::string(MAV_BINARY_DIR) + "/bin";
-
-using ::mav::test_support::TestDomain;  // tests/common/test_domain.h
-
-using ::mav::test_support::Child;  // tests/common/stack_process.h
-using ::mav::test_support::FreeTcpPort;
-using ::mav::test_support::WaitServing;
+using ::mav::test_support::Stack;  // tests/common/stack_fixture.h
 
 std::chrono::system_clock::time_point Deadline(int seconds) {
   return std::chrono::system_clock::now() + std::chrono::seconds(seconds);
@@ -68,8 +61,8 @@ v1::Box BoxAround(const Eigen::Vector3d& c, double half) {
 }
 
 // True when every ground-truth voxel the box [c - half, c + half] touches has `state`.
-bool AllVoxels(const sim::OccupancyGrid& grid, const Eigen::Vector3d& c, double half,
-               sim::VoxelState state) {
+bool AllVoxels(const dataset::OccupancyGrid& grid, const Eigen::Vector3d& c, double half,
+               dataset::VoxelState state) {
   const Eigen::Vector3i lo = grid.IndexOf(c - Eigen::Vector3d::Constant(half));
   const Eigen::Vector3i hi = grid.IndexOf(c + Eigen::Vector3d::Constant(half));
   for (int k = lo.z(); k <= hi.z(); ++k) {
@@ -91,27 +84,13 @@ int FramesFromEnv() {
 TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
   const int kFrames = FramesFromEnv();
   const int64_t start_ns = MonotonicNowNs();
-  const int64_t domain = TestDomain(53);
-  const int sim_port = FreeTcpPort();
-  int map_port = FreeTcpPort();
-  while (map_port == sim_port) map_port = FreeTcpPort();
-  const std::string sim_target = "127.0.0.1:" + std::to_string(sim_port);
-  const std::string map_target = "127.0.0.1:" + std::to_string(map_port);
-  const std::string logs = std::string(MAV_BINARY_DIR) + "/Testing";
-  std::system(("mkdir -p " + logs).c_str());
-  const std::string tag = std::to_string(::getpid());
-  const std::string sim_log = logs + "/map-stack-simulator-" + tag + ".log";
-  const std::string map_log = logs + "/map-stack-mapping-" + tag + ".log";
-  Child simulator({kBinDir + "/mav-simulator", "--port", std::to_string(sim_port), "--dds-domain",
-                   std::to_string(domain)},
-                  sim_log);
+  Stack stack(/*domain_key=*/53);
+  const std::string sim_target = stack.Start("mav-simulator", "mav.v1.Simulator");
+  ASSERT_FALSE(sim_target.empty()) << "see " << stack.Log("mav-simulator");
   // A queue deep enough that no keyframe is dropped while rendering and mapping share two cores.
-  Child mapping({kBinDir + "/mav-mapping", "--port", std::to_string(map_port), "--dds-domain",
-                 std::to_string(domain), "--queue-length", "200"},
-                map_log);
-  ASSERT_TRUE(simulator.running() && mapping.running());
-  ASSERT_TRUE(WaitServing(sim_target, "mav.v1.Simulator")) << "see " << sim_log;
-  ASSERT_TRUE(WaitServing(map_target, "mav.v1.Mapping")) << "see " << map_log;
+  const std::string map_target =
+      stack.Start("mav-mapping", "mav.v1.Mapping", {"--queue-length", "200"});
+  ASSERT_FALSE(map_target.empty()) << "see " << stack.Log("mav-mapping");
 
   auto sim =
       v1::Simulator::NewStub(grpc::CreateChannel(sim_target, grpc::InsecureChannelCredentials()));
@@ -171,7 +150,7 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   ASSERT_TRUE(finished) << "frames seen " << status.frames_seen() << " of " << kFrames << "; see "
-                        << map_log;
+                        << stack.Log("mav-mapping");
   const double streamed_s = NsToSeconds(MonotonicNowNs() - start_ns);
   EXPECT_EQ(status.frames_seen(), static_cast<uint64_t>(kFrames));
   EXPECT_EQ(status.frames_without_pose(), 0u) << "every frame has a ground-truth pose";
@@ -192,7 +171,8 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
   EXPECT_GT(built.occupancy().occupied_voxels(), 1000u);
 
   // The occupancy map streamed in 4 KiB chunks into a file that OctoMap reads.
-  const std::string bt_path = logs + "/map-stack-" + tag + ".bt";
+  const std::string bt_path =
+      ::testing::TempDir() + "/map-stack-" + std::to_string(::getpid()) + ".bt";
   {
     v1::GetOccupancyRequest request;
     request.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
@@ -235,7 +215,7 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
   options.seed = 1;
   Result<sim::Scenario> scenario = sim::Scenario::Create(options);
   ASSERT_TRUE(scenario.ok()) << scenario.status().ToString();
-  const sim::OccupancyGrid truth = scenario->ComputeOccupancy(0.05);
+  const dataset::OccupancyGrid truth = scenario->ComputeOccupancy(0.05);
   constexpr double kHalf = 0.05;
   constexpr double kSolidHalf = 0.025;
   constexpr double kMaxSolidDepth = 6.0;
@@ -245,7 +225,7 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
     const geometry::SE3 T_world_body = scenario->StateAt(scenario->FrameTimeNs(k)).T_world_body;
     const Eigen::Vector3d p =
         T_world_body * scenario->calibration().T_body_cam0 * Eigen::Vector3d(0, 0, kAhead);
-    if (AllVoxels(truth, p, kHalf, sim::VoxelState::kFree)) in_front.push_back(p);
+    if (AllVoxels(truth, p, kHalf, dataset::VoxelState::kFree)) in_front.push_back(p);
   }
   const v1::Box& b = built.occupancy().bounds();
   const Eigen::AlignedBox3d map_bounds(Eigen::Vector3d(b.min().x(), b.min().y(), b.min().z()),
@@ -262,11 +242,11 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
       const Eigen::Vector3d origin = T_world_cam.Translation();
       const Eigen::Vector3d direction = T_world_cam.Rotation() * ray.normalized();
       for (double d = 0.1; d < kMaxSolidDepth; d += 0.01) {
-        const sim::VoxelState state = truth.StateAt(origin + d * direction);
-        if (state == sim::VoxelState::kFree) continue;
+        const dataset::VoxelState state = truth.StateAt(origin + d * direction);
+        if (state == dataset::VoxelState::kFree) continue;
         const Eigen::Vector3d c = origin + (d + 0.04) * direction;
-        if (state == sim::VoxelState::kOccupied && map_bounds.contains(c) &&
-            AllVoxels(truth, c, kSolidHalf, sim::VoxelState::kOccupied)) {
+        if (state == dataset::VoxelState::kOccupied && map_bounds.contains(c) &&
+            AllVoxels(truth, c, kSolidHalf, dataset::VoxelState::kOccupied)) {
           solid.push_back(c);
         }
         break;
@@ -340,10 +320,25 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
     EXPECT_GT(octomap.occupancy().occupied_voxels(), 1000u);
   }
 
-  mapping.Signal(SIGTERM);
-  EXPECT_EQ(mapping.Wait(std::chrono::seconds(10)), std::optional<int>(0)) << "see " << map_log;
-  simulator.Signal(SIGTERM);
-  EXPECT_EQ(simulator.Wait(std::chrono::seconds(10)), std::optional<int>(0));
+  // SIGTERM during a build: the server drains (5 s grace) and the client gets its map.
+  {
+    v1::BuildMapRequest slow = build;
+    slow.set_resolution_m(0.025);  // ~30 M voxels to paint: seconds
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(60));
+    v1::BuildMapResponse response;
+    grpc::Status rpc;
+    std::thread client([&] { rpc = map->BuildMap(&context, slow, &response); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    stack.Process("mav-mapping")->Signal(SIGTERM);
+    client.join();
+    EXPECT_TRUE(rpc.ok()) << "the build in flight must reach its client: " << rpc.error_message();
+    EXPECT_EQ(response.keyframes(), built.keyframes());
+  }
+  EXPECT_EQ(stack.Process("mav-mapping")->Wait(std::chrono::seconds(10)), std::optional<int>(0))
+      << "see " << stack.Log("mav-mapping");
+  stack.Process("mav-simulator")->Signal(SIGTERM);
+  EXPECT_EQ(stack.Process("mav-simulator")->Wait(std::chrono::seconds(10)), std::optional<int>(0));
 }
 
 }  // namespace

@@ -94,4 +94,43 @@ Status StereoRectifier::Rectify(const cv::Mat& raw_left, const cv::Mat& raw_righ
   return Status::Ok();
 }
 
+Result<RigRectification> RigRectification::Create(const StereoCalibration& calibration,
+                                                  bool calibration_rectified) {
+  std::string why;
+  if (!calibration.IsValid(&why)) return Status::InvalidArgument("calibration: " + why);
+  RigRectification out;
+  if (calibration_rectified) {
+    if (calibration.cam0.HasDistortion() || calibration.cam1.HasDistortion()) {
+      return Status::InvalidArgument("calibration: a rectified rig must have no distortion");
+    }
+    const PinholeRadTan& cam0 = calibration.cam0;
+    out.rig.width = cam0.width;
+    out.rig.height = cam0.height;
+    out.rig.fx = cam0.fx;
+    out.rig.fy = cam0.fy;
+    out.rig.cx = cam0.cx;
+    out.rig.cy = cam0.cy;
+    out.rig.baseline = calibration.Baseline();
+    out.T_body_rect0 = calibration.T_body_cam0;
+    return out;
+  }
+  Result<StereoRectifier> rectifier = StereoRectifier::Create(calibration);
+  if (!rectifier.ok())
+    return Status::InvalidArgument("calibration: " + rectifier.status().message());
+  out.rig = rectifier->rectified();
+  out.T_body_rect0 = rectifier->T_body_rect0();
+  out.rectifier.emplace(std::move(*rectifier));
+  return out;
+}
+
+Status RigRectification::Rectify(const cv::Mat& left, const cv::Mat& right, bool already_rectified,
+                                 cv::Mat* rect_left, cv::Mat* rect_right) const {
+  if (already_rectified || !rectifier.has_value()) {
+    *rect_left = left;
+    *rect_right = right;
+    return Status::Ok();
+  }
+  return rectifier->Rectify(left, right, rect_left, rect_right);
+}
+
 }  // namespace mav::camera

@@ -117,4 +117,13 @@ Eigen::Matrix3d RotationFromRollPitchYaw(double roll, double pitch, double yaw) 
       .toRotationMatrix();
 }
 
+SE3 BodyPoseFromSensorPose(const SE3& T_world_sensor, const SE3& T_body_sensor) {
+  return T_world_sensor * T_body_sensor.Inverse();
+}
+
+SE3 BodyPoseFromSensorOdometry(const SE3& T_world_body0, const SE3& T_body_sensor,
+                               const SE3& T_sensor0_sensork) {
+  return T_world_body0 * T_body_sensor * T_sensor0_sensork * T_body_sensor.Inverse();
+}
+
 }  // namespace mav::geometry

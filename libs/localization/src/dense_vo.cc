@@ -1,8 +1,6 @@
 #include "mav/localization/dense_vo.h"
-#include "input_checks.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -15,13 +13,14 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "input_checks.h"
+#include "mav/common/time.h"
+
 namespace mav::localization {
 namespace {
 
 using geometry::SE3;
 using internal::CheckImage;
-using internal::Clock;
-using internal::MsSince;
 using Matrix8d = Eigen::Matrix<double, 8, 8>;
 using Vector8d = Eigen::Matrix<double, 8, 1>;
 using JacobianMatrix = Eigen::Matrix<float, Eigen::Dynamic, 8>;
@@ -773,14 +772,14 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
   MAV_RETURN_IF_ERROR(CheckImage("left", left, s.rig));
   MAV_RETURN_IF_ERROR(CheckImage("right", right, s.rig));
   const DenseVoOptions& o = s.options;
-  const auto t_start = Clock::now();
+  const int64_t t_start = MonotonicNowNs();
 
   DenseFrameResult result;
   result.t_ns = t_ns;
   result.frame_index = s.frames++;
   result.T_world_cam = s.T_world_cam;
 
-  auto t0 = Clock::now();
+  int64_t t0 = MonotonicNowNs();
   s.BuildPyramid(left);
   result.timing.pyramid_ms = MsSince(t0);
 
@@ -808,7 +807,7 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
   }
 
   if (!s.has_keyframe) {
-    t0 = Clock::now();
+    t0 = MonotonicNowNs();
     const std::string why = s.BuildKeyframe(left, right, s.T_world_cam);
     result.timing.keyframe_ms = MsSince(t0);
     s.T_kf_prev = SE3();
@@ -829,7 +828,7 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
   const SE3 T_kf_pred = o.use_motion_prior ? s.T_kf_prev * s.T_prev_cur_last : s.T_kf_prev;
   SE3 T_cur_kf = T_kf_pred.Inverse();
   double a = s.log_gain, b = s.bias;
-  t0 = Clock::now();
+  t0 = MonotonicNowNs();
   const Impl::AlignStats stats = s.Align(&T_cur_kf, &a, &b);
   result.timing.tracking_ms = MsSince(t0);
   result.iterations = stats.iterations;
@@ -866,7 +865,7 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
     result.iterations = stats.iterations;
     // Re-initialise: this pair becomes the keyframe at the held pose if it can.
     s.has_keyframe = false;
-    t0 = Clock::now();
+    t0 = MonotonicNowNs();
     const std::string why = s.BuildKeyframe(left, right, s.T_world_cam);
     result.timing.keyframe_ms = MsSince(t0);
     result.new_keyframe = why.empty();
@@ -891,7 +890,7 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
                              stats.rms > o.keyframe_max_rms_error ||
                              visible < o.keyframe_min_visible_fraction;
   if (need_keyframe) {
-    t0 = Clock::now();
+    t0 = MonotonicNowNs();
     Keyframe old = std::move(s.keyframe);
     const std::string why = s.BuildKeyframe(left, right, s.T_world_cam);
     result.timing.keyframe_ms = MsSince(t0);

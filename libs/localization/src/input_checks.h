@@ -1,7 +1,6 @@
 #pragma once
-// Internal helpers shared by the sparse and dense odometry: input validation and stage timing.
+// Internal helpers shared by the sparse and dense odometry: input validation.
 
-#include <chrono>
 #include <sstream>
 
 #include <opencv2/core/mat.hpp>
@@ -10,12 +9,6 @@
 #include "mav/common/status.h"
 
 namespace mav::localization::internal {
-
-using Clock = std::chrono::steady_clock;
-
-inline double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 // InvalidArgument naming `name` ("left"/"right") for an empty, non-CV_8UC1 or wrongly sized image.
 inline Status CheckImage(const char* name, const cv::Mat& image,

@@ -2,9 +2,6 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "mav/localization/dense_vo.h"
-#include "mav/localization/sparse_vo.h"
-
 namespace mav::localization {
 
 const char* MethodName(Method method) {
@@ -32,6 +29,20 @@ const std::vector<Method>& AllMethods() {
   return kMethods;
 }
 
+bool OdometryOptions::IsValid(Method method, std::string* why) const {
+  std::string inner;
+  if (method == Method::kDense) {
+    if (!dense.IsValid(&inner)) {
+      if (why != nullptr) *why = "dense: " + inner;
+      return false;
+    }
+  } else if (!sparse.IsValid(&inner)) {
+    if (why != nullptr) *why = "sparse: " + inner;
+    return false;
+  }
+  return true;
+}
+
 namespace {
 
 class SparseOdometry final : public StereoOdometry {
@@ -45,8 +56,13 @@ class SparseOdometry final : public StereoOdometry {
     out.state = r.state;
     out.lost_reason = r.lost_reason;
     out.T_world_cam = r.T_world_cam;
+    out.reference_reset = r.reference_reset;
+    out.matches = r.num_matches;
     out.support = r.num_inliers;
     out.residual = r.mean_reprojection_error_px;
+    out.features_ms = r.timing.features_ms;
+    out.matching_ms = r.timing.matching_ms;
+    out.motion_ms = r.timing.estimation_ms;
     out.runtime_ms = r.timing.total_ms;
     return out;
   }
@@ -69,8 +85,13 @@ class DenseOdometry final : public StereoOdometry {
     out.state = r.state;
     out.lost_reason = r.lost_reason;
     out.T_world_cam = r.T_world_cam;
+    out.reference_reset = r.reference_reset;
+    out.keyframe = r.new_keyframe;
+    out.matches = r.num_keyframe_pixels;
     out.support = r.num_pixels_used;
     out.residual = r.rms_error;
+    out.features_ms = r.timing.keyframe_ms;
+    out.motion_ms = r.timing.pyramid_ms + r.timing.tracking_ms;
     out.runtime_ms = r.timing.total_ms;
     return out;
   }
@@ -84,14 +105,20 @@ class DenseOdometry final : public StereoOdometry {
 }  // namespace
 
 Result<std::unique_ptr<StereoOdometry>> StereoOdometry::Create(Method method,
-                                                               const camera::RectifiedStereo& rig) {
+                                                               const camera::RectifiedStereo& rig,
+                                                               const OdometryOptions& options) {
+  std::string why;
+  if (!options.IsValid(method, &why)) return Status::InvalidArgument(why);
   if (method == Method::kDense) {
-    MAV_ASSIGN_OR_RETURN(DenseVo vo, DenseVo::Create(rig));
-    return std::unique_ptr<StereoOdometry>(new DenseOdometry(std::move(vo)));
+    Result<DenseVo> vo = DenseVo::Create(rig, options.dense);
+    if (!vo.ok()) return Status::InvalidArgument("dense: " + vo.status().message());
+    return std::unique_ptr<StereoOdometry>(new DenseOdometry(std::move(*vo)));
   }
-  SparseVoOptions options;
-  options.mode = method == Method::kSparsePixel ? SparseVoMode::kPixel : SparseVoMode::kSubpixel;
-  MAV_ASSIGN_OR_RETURN(SparseVo vo, SparseVo::Create(rig, options));
+  SparseVoOptions sparse = options.sparse;
+  sparse.mode = method == Method::kSparsePixel ? SparseVoMode::kPixel : SparseVoMode::kSubpixel;
+  Result<SparseVo> created = SparseVo::Create(rig, sparse);
+  if (!created.ok()) return Status::InvalidArgument("sparse: " + created.status().message());
+  SparseVo vo = std::move(*created);
   return std::unique_ptr<StereoOdometry>(new SparseOdometry(method, std::move(vo)));
 }
 

@@ -1,19 +1,18 @@
 #include "mav/localization/sparse_vo.h"
-#include "input_checks.h"
 
-#include <chrono>
 #include <cmath>
 #include <sstream>
 #include <utility>
 
 #include <opencv2/core.hpp>
 
+#include "input_checks.h"
+#include "mav/common/time.h"
+
 namespace mav::localization {
 namespace {
 
 using internal::CheckImage;
-using internal::Clock;
-using internal::MsSince;
 
 ImageView ViewOf(const cv::Mat& m) {
   return ImageView{m.data, m.cols, m.rows, static_cast<int>(m.step[0])};
@@ -168,7 +167,7 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
   MAV_RETURN_IF_ERROR(CheckImage("left", left, s.rig));
   MAV_RETURN_IF_ERROR(CheckImage("right", right, s.rig));
   const SparseVoOptions& opt = s.options;
-  const auto t_start = Clock::now();
+  const int64_t t_start = MonotonicNowNs();
 
   VoFrameResult result;
   result.t_ns = t_ns;
@@ -185,7 +184,7 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
   };
 
   // 1. Features of the current pair.
-  auto t0 = Clock::now();
+  int64_t t0 = MonotonicNowNs();
   s.extractor.Extract(ViewOf(left), &s.cur_left);
   s.extractor.Extract(ViewOf(right), &s.cur_right);
   result.num_features = s.cur_left.TotalFeatures();
@@ -217,7 +216,7 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
   for (int attempt = 0; attempt < 2; ++attempt) {
     const bool use_prior = attempt == 0 && s.prior_valid && opt.matcher.use_motion_prior;
     if (attempt == 1 && !(s.prior_valid && opt.matcher.use_motion_prior)) break;
-    t0 = Clock::now();
+    t0 = MonotonicNowNs();
     MatchCircular(s.prev_left, s.prev_right, s.cur_left, s.cur_right, s.rig,
                   use_prior ? &T_cur_ref_prior : nullptr, matcher, &s.matches);
     BucketMatches(opt.matcher, s.rig.width, s.rig.height, &s.matches);
@@ -236,7 +235,7 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
                     std::to_string(opt.min_matches) + ")";
       continue;
     }
-    t0 = Clock::now();
+    t0 = MonotonicNowNs();
     s.points.clear();
     s.observations.clear();
     s.match_of_point.clear();

@@ -44,7 +44,7 @@ double MatthewsCorrelation(int64_t tp, int64_t fn, int64_t tn, int64_t fp) {
 
 namespace {
 
-void BuildTable(const VoxelGrid& grid, VoxelState state, std::vector<int32_t>* table) {
+void BuildTable(const OccupancyGrid& grid, VoxelState state, std::vector<int32_t>* table) {
   const Eigen::Vector3i& n = grid.size();
   const int64_t sx = n.x() + 1, sy = n.y() + 1;
   table->assign(static_cast<size_t>(sx * sy * (n.z() + 1)), 0);
@@ -64,7 +64,7 @@ void BuildTable(const VoxelGrid& grid, VoxelState state, std::vector<int32_t>* t
 
 }  // namespace
 
-BoxQuery::BoxQuery(const VoxelGrid& grid) : geometry_(grid.geometry()) {
+BoxQuery::BoxQuery(const OccupancyGrid& grid) : geometry_(grid.geometry()) {
   BuildTable(grid, VoxelState::kOccupied, &occupied_);
   BuildTable(grid, VoxelState::kUnknown, &unknown_);
 }
@@ -113,7 +113,8 @@ BoxQuery::Answer BoxQuery::Query(const Eigen::Vector3d& min_world,
 // ---------------------------------------------------------------------------------------------
 // EvaluateCollisions
 
-Result<CollisionOutcomes> EvaluateCollisions(const VoxelGrid& truth, const VoxelGrid& computed,
+Result<CollisionOutcomes> EvaluateCollisions(const OccupancyGrid& truth,
+                                             const OccupancyGrid& computed,
                                              const CollisionEvalOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) return Status::InvalidArgument("CollisionEvalOptions: " + why);

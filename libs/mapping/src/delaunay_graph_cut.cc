@@ -5,7 +5,6 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <unordered_map>
@@ -17,6 +16,7 @@
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 
 #include "mav/common/check.h"
+#include "mav/common/time.h"
 #include "min_cut.h"
 
 namespace mav::mapping {
@@ -32,10 +32,6 @@ using CellHandle = Dt::Cell_handle;
 using VertexHandle = Dt::Vertex_handle;
 
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 Point ToPoint(const Eigen::Vector3d& p) { return Point(p.x(), p.y(), p.z()); }
 Eigen::Vector3d ToEigen(const Point& p) { return Eigen::Vector3d(p.x(), p.y(), p.z()); }
@@ -276,7 +272,7 @@ bool MeshingOptions::IsValid(std::string* why) const {
 Result<MeshingResult> BuildMesh(const std::vector<MapPoint>& points,
                                 const std::vector<KeyframeView>& keyframes,
                                 const MeshingOptions& options) {
-  const auto t_start = std::chrono::steady_clock::now();
+  const int64_t t_start = MonotonicNowNs();
   std::string why;
   if (!options.IsValid(&why)) return Status::InvalidArgument("MeshingOptions: " + why);
 
@@ -311,18 +307,18 @@ Result<MeshingResult> BuildMesh(const std::vector<MapPoint>& points,
   MeshingResult result;
   MeshingStats& stats = result.stats;
   stats.num_input_points = static_cast<int>(points.size());
-  auto t0 = std::chrono::steady_clock::now();
+  int64_t t0 = MonotonicNowNs();
   MAV_ASSIGN_OR_RETURN(std::unique_ptr<DelaunayTetrahedralization::Impl> impl,
                        BuildTriangulation(positions));
   const Dt& dt = impl->dt;
-  stats.seconds_triangulation = SecondsSince(t0);
+  stats.triangulation_s = SecondsSince(t0);
   stats.num_duplicate_points = impl->num_duplicates;
   stats.num_vertices = static_cast<int>(dt.number_of_vertices());
   stats.num_finite_cells = static_cast<int>(dt.number_of_finite_cells());
   stats.num_infinite_cells = impl->num_cells - stats.num_finite_cells;
 
   // Visibility term.
-  t0 = std::chrono::steady_clock::now();
+  t0 = MonotonicNowNs();
   const int n = impl->num_cells;
   internal::StGraph graph;
   graph.num_nodes = n;
@@ -373,10 +369,10 @@ Result<MeshingResult> BuildMesh(const std::vector<MapPoint>& points,
       if (dt.is_infinite(c)) graph.source_cap[c->info()] += total + 1.0;
     }
   }
-  stats.seconds_visibility = SecondsSince(t0);
+  stats.visibility_s = SecondsSince(t0);
 
   // Quality term and the facet edges; each facet once, from the cell with the smaller index.
-  t0 = std::chrono::steady_clock::now();
+  t0 = MonotonicNowNs();
   graph.edges.reserve(static_cast<size_t>(n) * 2);
   for (auto c = dt.all_cells_begin(); c != dt.all_cells_end(); ++c) {
     for (int i = 0; i < 4; ++i) {
@@ -399,10 +395,10 @@ Result<MeshingResult> BuildMesh(const std::vector<MapPoint>& points,
   }
   const internal::MinCut cut = internal::SolveMinCut(graph);
   stats.max_flow = cut.flow;
-  stats.seconds_graph_cut = SecondsSince(t0);
+  stats.graph_cut_s = SecondsSince(t0);
 
   // Labels, tetrahedra and the surface.
-  t0 = std::chrono::steady_clock::now();
+  t0 = MonotonicNowNs();
   result.points = std::move(positions);
   result.tetrahedra.reserve(stats.num_finite_cells);
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
@@ -451,8 +447,8 @@ Result<MeshingResult> BuildMesh(const std::vector<MapPoint>& points,
     }
     result.mesh.triangles.emplace_back(mesh_index(tri[0]), mesh_index(tri[1]), mesh_index(tri[2]));
   }
-  stats.seconds_extraction = SecondsSince(t0);
-  stats.seconds_total = SecondsSince(t_start);
+  stats.extraction_s = SecondsSince(t0);
+  stats.total_s = SecondsSince(t_start);
   return result;
 }
 

@@ -87,7 +87,7 @@ bool CubeRange(const GridGeometry& g, const Eigen::Vector3d& min, const Eigen::V
   return true;
 }
 
-void RasteriseTetrahedron(const Eigen::Vector3d v[4], VoxelState state, VoxelGrid* grid) {
+void RasteriseTetrahedron(const Eigen::Vector3d v[4], VoxelState state, OccupancyGrid* grid) {
   const GridGeometry& g = grid->geometry();
   Eigen::Matrix3d m;
   m << v[1] - v[0], v[2] - v[0], v[3] - v[0];
@@ -161,7 +161,7 @@ constexpr uint8_t kSeenThick = 2;  // crossed by the thick part of a line of sig
 // layout), stopping one voxel before `to` (Amanatides-Woo traversal): kSeenThick up to
 // `thick_stop_m` before `to` when `thick`, kSeen after that (or everywhere when not `thick`).
 void TraceRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool thick,
-              double thick_stop_m, const VoxelGrid& grid, std::vector<uint8_t>* mask) {
+              double thick_stop_m, const OccupancyGrid& grid, std::vector<uint8_t>* mask) {
   const GridGeometry& g = grid.geometry();
   const Eigen::Vector3d d = to - from;
   const double length = d.norm();
@@ -234,9 +234,11 @@ void DilateThick(const Eigen::Vector3i& size, int radius, std::vector<uint8_t>* 
 
 }  // namespace
 
-Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vector<MapPoint>& points,
-                                  const std::vector<KeyframeView>& keyframes,
-                                  const GridGeometry& geometry, const MeshToGridOptions& options) {
+Result<OccupancyGrid> MeshToOccupancy(const MeshingResult& meshing,
+                                      const std::vector<MapPoint>& points,
+                                      const std::vector<KeyframeView>& keyframes,
+                                      const GridGeometry& geometry,
+                                      const MeshToGridOptions& options) {
   std::string why;
   if (!geometry.IsValid(&why)) return Status::InvalidArgument("GridGeometry: " + why);
   if (!options.IsValid(&why)) return Status::InvalidArgument("MeshToGridOptions: " + why);
@@ -250,7 +252,7 @@ Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vecto
       }
     }
   }
-  VoxelGrid grid(geometry, VoxelState::kUnknown);
+  OccupancyGrid grid(geometry, VoxelState::kUnknown);
   Eigen::Vector3d v[4];
   for (int pass = 0; pass < 2; ++pass) {
     const bool inside_pass = pass == 1;

@@ -1,7 +1,6 @@
 #include "mav/mapping/octomap_mapper.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -11,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "mav/common/check.h"
+#include "mav/common/time.h"
 
 namespace mav::mapping {
 namespace {
@@ -20,11 +20,6 @@ namespace {
 constexpr int kTreeDepth = 16;
 constexpr int64_t kKeyOffset = int64_t{1} << 15;
 constexpr int64_t kNumKeys = int64_t{1} << 16;
-
-using Clock = std::chrono::steady_clock;
-double MsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 std::string MatTypeName(int type) {
   static const char* kDepths[] = {"8U", "8S", "16U", "16S", "32S", "32F", "64F", "16F"};
@@ -295,7 +290,7 @@ Status OctomapMapper::InsertKeyframe(const cv::Mat& left, const cv::Mat& right,
   const OctomapMapperOptions& o = s.options;
   OctomapKeyframeTiming timing;
 
-  Clock::time_point start = Clock::now();
+  int64_t start = MonotonicNowNs();
   try {
     s.matcher->compute(left, right, s.disparity);
   } catch (const cv::Exception& e) {
@@ -304,7 +299,7 @@ Status OctomapMapper::InsertKeyframe(const cv::Mat& left, const cv::Mat& right,
   timing.disparity_ms = MsSince(start);
   MAV_CHECK(s.disparity.type() == CV_16SC1) << "unexpected disparity type";
 
-  start = Clock::now();
+  start = MonotonicNowNs();
   const Eigen::Matrix3d R_world_cam = T_world_cam.RotationMatrix();
   const Eigen::Vector3d& t_world_cam = T_world_cam.Translation();
   const double fx_b = stereo.fx * stereo.baseline;
@@ -332,7 +327,7 @@ Status OctomapMapper::InsertKeyframe(const cv::Mat& left, const cv::Mat& right,
   timing.points = static_cast<int64_t>(cloud.size());
   timing.points_ms = MsSince(start);
 
-  start = Clock::now();
+  start = MonotonicNowNs();
   if (cloud.size() > 0) {
     const octomap::point3d origin(static_cast<float>(t_world_cam.x()),
                                   static_cast<float>(t_world_cam.y()),
@@ -345,7 +340,7 @@ Status OctomapMapper::InsertKeyframe(const cv::Mat& left, const cv::Mat& right,
 }
 
 const OctomapMapperStats& OctomapMapper::Finish() {
-  const Clock::time_point start = Clock::now();
+  const int64_t start = MonotonicNowNs();
   impl_->tree->prune();
   impl_->stats.finish_ms += MsSince(start);
   return impl_->stats;
@@ -382,7 +377,7 @@ Result<BoxOccupancy> OctomapMapper::Classify(const Eigen::AlignedBox3d& box_worl
   return known < keys.Volume() ? BoxOccupancy::kUnknown : BoxOccupancy::kFree;
 }
 
-Result<VoxelGrid> OctomapMapper::ToGrid(const GridGeometry& geometry) const {
+Result<OccupancyGrid> OctomapMapper::ToGrid(const GridGeometry& geometry) const {
   std::string why;
   if (!geometry.IsValid(&why)) return Status::InvalidArgument("geometry: " + why);
   const octomap::OcTree& tree = *impl_->tree;
@@ -451,7 +446,7 @@ Result<VoxelGrid> OctomapMapper::ToGrid(const GridGeometry& geometry) const {
       states[idx] = VoxelState::kFree;
     }
   }
-  return VoxelGrid(geometry, std::move(states));
+  return OccupancyGrid(geometry, std::move(states));
 }
 
 Status OctomapMapper::WriteBinary(const std::string& path) const {

@@ -10,8 +10,6 @@
 namespace mav::mapping {
 namespace {
 
-double SecondsSince(int64_t start_ns) { return NsToSeconds(MonotonicNowNs() - start_ns); }
-
 // Validates like OctomapMapper::InsertKeyframe so a bad pair never reaches either mapper.
 Status CheckImage(const cv::Mat& image, const camera::RectifiedStereo& rig, const char* name) {
   const std::string n = name;
@@ -129,6 +127,123 @@ Result<bool> MappingPipeline::AddFrame(const cv::Mat& left, const cv::Mat& right
   return is_keyframe;
 }
 
+bool BuildOptions::IsValid(std::string* why) const {
+  std::string sub;
+  if (meshing.has_value() && !meshing->IsValid(&sub)) {
+    if (why != nullptr) *why = "meshing." + sub;
+    return false;
+  }
+  if (min_visibility < 1 || min_visibility > 100) {
+    if (why != nullptr) {
+      *why = "min_visibility: must be in [1, 100], got " + std::to_string(min_visibility);
+    }
+    return false;
+  }
+  return true;
+}
+
+namespace {
+
+std::vector<MapPoint> VisiblePoints(const SparsePointCloud& sparse, int min_visibility) {
+  std::vector<MapPoint> points = sparse.Points();
+  if (min_visibility > 1) {
+    std::erase_if(points, [&](const MapPoint& p) {
+      return static_cast<int>(p.keyframes.size()) < min_visibility;
+    });
+  }
+  return points;
+}
+
+}  // namespace
+
+GridGeometry MappingPipeline::GeometryAround(double resolution, double padding_m,
+                                             int min_visibility) const {
+  std::vector<MapPoint> points;
+  std::vector<KeyframeView> views;
+  if (impl_->sparse) {
+    points = VisiblePoints(*impl_->sparse, min_visibility);
+    views = impl_->sparse->keyframes();
+  } else {
+    for (size_t i = 0; i < impl_->keyframe_poses.size(); ++i) {
+      views.push_back({static_cast<int>(i), impl_->keyframe_poses[i].Translation()});
+    }
+  }
+  return GridGeometryAround(points, views, resolution, padding_m);
+}
+
+Result<MethodMap> MappingPipeline::Build(MappingMethod method, const GridGeometry& geometry,
+                                         const BuildOptions& options,
+                                         const Termination& termination,
+                                         const ProgressCallback& progress) {
+  const int64_t start = MonotonicNowNs();
+  std::string why;
+  if (!geometry.IsValid(&why)) return Status::InvalidArgument("geometry: " + why);
+  if (!options.IsValid(&why)) return Status::InvalidArgument(why);
+  if (impl_->keyframe_poses.empty()) {
+    return Status::FailedPrecondition(
+        "empty map: no keyframes yet (stream frames with poses or insert keyframes first)");
+  }
+  const std::string name = MappingMethodName(method);
+  auto report = [&](const char* stage, double fraction) {
+    if (progress) progress(stage, fraction);
+  };
+  MethodMap out;
+  out.method = method;
+  out.keyframes = static_cast<int64_t>(impl_->keyframe_poses.size());
+  if (method == MappingMethod::kSparseMesh) {
+    if (!impl_->sparse) return Status::FailedPrecondition("the pipeline runs no sparse mesher");
+    const SparsePointCloud& sparse = *impl_->sparse;
+    out.points = VisiblePoints(sparse, options.min_visibility);
+    out.keyframe_views = sparse.keyframes();
+    if (out.points.size() < 4) {
+      return Status::FailedPrecondition(
+          "empty map: " + std::to_string(out.points.size()) +
+          " sparse points (after min_visibility), the Delaunay triangulation needs 4");
+    }
+    out.per_keyframe_ms = sparse.stats().TotalMs();
+    report("meshing (Delaunay, visibility, graph cut)", 0.1);
+    int64_t stage = MonotonicNowNs();
+    Result<MeshingResult> meshing =
+        BuildMesh(out.points, out.keyframe_views, options.meshing.value_or(impl_->options.meshing));
+    if (!meshing.ok())
+      return Status(meshing.status().code(), name + ": " + meshing.status().message());
+    out.meshing = std::move(meshing).value();
+    out.meshing_ms = MsSince(stage);
+    MAV_RETURN_IF_ERROR(termination.Check("BuildMap (" + name + ", after meshing)"));
+    report("mesh to occupancy grid", 0.7);
+    stage = MonotonicNowNs();
+    // Free space from every line of sight: to the rejected single-view points too, and to the
+    // verified stereo matches that became no point.
+    const std::vector<MapPoint> sight_points = sparse.SightPoints();
+    for (const MapPoint& p : sight_points) {
+      out.lines_of_sight += static_cast<int64_t>(p.keyframes.size());
+    }
+    Result<OccupancyGrid> grid = MeshToOccupancy(out.meshing, sight_points, out.keyframe_views,
+                                                 geometry, impl_->options.mesh_to_grid);
+    if (!grid.ok()) return Status(grid.status().code(), name + ": " + grid.status().message());
+    out.grid = std::move(grid).value();
+    out.to_grid_ms = MsSince(stage);
+  } else {
+    if (!impl_->octomap) return Status::FailedPrecondition("the pipeline runs no OctoMap mapper");
+    OctomapMapper& octomap = *impl_->octomap;
+    const double prune_before = octomap.stats().finish_ms;
+    const OctomapMapperStats& stats = octomap.Finish();
+    out.prune_ms = stats.finish_ms - prune_before;
+    out.per_keyframe_ms = stats.TotalMs() - stats.finish_ms;
+    out.range_points = stats.TotalPoints();
+    MAV_RETURN_IF_ERROR(termination.Check("BuildMap (" + name + ", after pruning)"));
+    report("octree to occupancy grid", 0.2);
+    const int64_t stage = MonotonicNowNs();
+    Result<OccupancyGrid> grid = octomap.ToGrid(geometry);
+    if (!grid.ok()) return Status(grid.status().code(), name + ": " + grid.status().message());
+    out.grid = std::move(grid).value();
+    out.to_grid_ms = MsSince(stage);
+  }
+  MAV_RETURN_IF_ERROR(termination.Check("BuildMap (" + name + ")"));
+  out.build_ms = MsSince(start);
+  return out;
+}
+
 Result<MappingOutput> MappingPipeline::Finish(const GridGeometry& geometry) {
   std::string why;
   if (!geometry.IsValid(&why)) return Status::InvalidArgument("geometry: " + why);
@@ -141,48 +256,32 @@ Result<MappingOutput> MappingPipeline::Finish(const GridGeometry& geometry) {
   out.keyframe_poses = impl_->keyframe_poses;
 
   if (impl_->sparse) {
+    MAV_ASSIGN_OR_RETURN(MethodMap map, Build(MappingMethod::kSparseMesh, geometry));
     const SparsePointCloud& sparse = *impl_->sparse;
     out.has_sparse_mesh = true;
-    out.points = sparse.Points();
-    out.keyframe_views = sparse.keyframes();
+    out.points = std::move(map.points);
+    out.keyframe_views = std::move(map.keyframe_views);
+    out.meshing = std::move(map.meshing);
+    out.sparse_mesh_grid = std::move(map.grid);
+    out.lines_of_sight = map.lines_of_sight;
     out.sparse_stats = sparse.stats();
     SparseMeshTiming& t = out.sparse_mesh_timing;
     t.extraction_s = sparse.stats().TotalExtractionMs() * 1e-3;
     t.matching_s = sparse.stats().TotalMatchingMs() * 1e-3;
     t.merging_s = sparse.stats().TotalMergingMs() * 1e-3;
-    int64_t start = MonotonicNowNs();
-    auto meshing = BuildMesh(out.points, out.keyframe_views, impl_->options.meshing);
-    if (!meshing.ok()) {
-      return Status(meshing.status().code(), "sparse-mesh: " + meshing.status().message());
-    }
-    out.meshing = std::move(meshing).value();
-    t.meshing_s = SecondsSince(start);
-    start = MonotonicNowNs();
-    // Free space from every line of sight: to the rejected single-view points too, and to the
-    // verified stereo matches that became no point.
-    const std::vector<MapPoint> sight_points = sparse.SightPoints();
-    out.lines_of_sight = 0;
-    for (const MapPoint& p : sight_points)
-      out.lines_of_sight += static_cast<int64_t>(p.keyframes.size());
-    auto grid = MeshToOccupancy(out.meshing, sight_points, out.keyframe_views, geometry,
-                                impl_->options.mesh_to_grid);
-    if (!grid.ok()) return Status(grid.status().code(), "sparse-mesh: " + grid.status().message());
-    out.sparse_mesh_grid = std::move(grid).value();
-    t.to_grid_s = SecondsSince(start);
-    t.total_s = sparse.stats().TotalMs() * 1e-3 + t.meshing_s + t.to_grid_s;
+    t.meshing_s = map.meshing_ms * 1e-3;
+    t.to_grid_s = map.to_grid_ms * 1e-3;
+    t.total_s = map.per_keyframe_ms * 1e-3 + t.meshing_s + t.to_grid_s;
   }
 
   if (impl_->octomap) {
-    OctomapMapper& octomap = *impl_->octomap;
+    MAV_ASSIGN_OR_RETURN(MethodMap map, Build(MappingMethod::kOctomap, geometry));
+    const OctomapMapperStats& stats = impl_->octomap->stats();
     out.has_octomap = true;
-    const OctomapMapperStats& stats = octomap.Finish();
-    const int64_t start = MonotonicNowNs();
-    auto grid = octomap.ToGrid(geometry);
-    if (!grid.ok()) return Status(grid.status().code(), "octomap: " + grid.status().message());
-    out.octomap_grid = std::move(grid).value();
+    out.octomap_grid = std::move(map.grid);
     out.octomap_stats = stats;
     OctomapTiming& t = out.octomap_timing;
-    t.to_grid_s = SecondsSince(start);
+    t.to_grid_s = map.to_grid_ms * 1e-3;
     t.disparity_s = stats.TotalDisparityMs() * 1e-3;
     t.points_s = stats.TotalPointsMs() * 1e-3;
     t.insertion_s = stats.TotalInsertionMs() * 1e-3;

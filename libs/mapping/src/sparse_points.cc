@@ -17,8 +17,6 @@ namespace {
 using localization::FeatureSet;
 using localization::ImageView;
 
-double MsSince(int64_t start_ns) { return NsToSeconds(MonotonicNowNs() - start_ns) * 1e3; }
-
 // Best feature of class `c` (lowest descriptor SAD to `d`) inside [u0, u1] x [v0, v1]
 // (inclusive), visiting only the grid cells the window overlaps (features are sorted by cell).
 // *second_cost receives the second lowest SAD (uint32 max if there is none).
@@ -87,6 +85,8 @@ bool SparsePointsOptions::IsValid(std::string* why) const {
   std::string sub;
   if (!features.IsValid(&sub)) {
     msg << "features." << sub;
+  } else if (max_sight_lines < 0) {
+    msg << "max_sight_lines: must be >= 0, got " << max_sight_lines;
   } else if (!(min_depth_m > 0) || !std::isfinite(min_depth_m)) {
     msg << "min_depth_m: must be finite and > 0 [m], got " << min_depth_m;
   } else if (!(max_depth_m > min_depth_m) || !std::isfinite(max_depth_m)) {
@@ -209,8 +209,18 @@ std::vector<MapPoint> SparsePointCloud::AllPoints() const {
 
 std::vector<MapPoint> SparsePointCloud::SightPoints() const {
   std::vector<MapPoint> points = AllPoints();
-  points.insert(points.end(), extra_sight_lines_.begin(), extra_sight_lines_.end());
+  points.reserve(points.size() + extra_sight_lines_.size());
+  for (const SightLine& line : extra_sight_lines_)
+    points.push_back({line.p_world, {line.keyframe}});
   return points;
+}
+
+void SparsePointCloud::AddSightLine(const Eigen::Vector3d& p_world, int keyframe) {
+  if (static_cast<int64_t>(extra_sight_lines_.size()) >= options_.max_sight_lines) {
+    ++stats_.sight_lines_dropped;
+    return;
+  }
+  extra_sight_lines_.push_back({p_world, keyframe});
 }
 
 int64_t SparsePointCloud::num_accepted_points() const {
@@ -439,7 +449,7 @@ Result<int> SparsePointCloud::AddObservationsTimed(
             tracks_[track].supported = true;
           } else if (!km_in_sight[j]) {
             km_in_sight[j] = 1;
-            extra_sight_lines_.push_back({km.p_world[j], {km.id}});
+            AddSightLine(km.p_world[j], km.id);
           }
         });
       }
@@ -571,7 +581,7 @@ Result<int> SparsePointCloud::AddObservationsTimed(
     }
     for (int i = 0; i < n; ++i) {
       if (supported[i] && track_of_observation[i] < 0) {
-        extra_sight_lines_.push_back({p_world[i], {id}});
+        AddSightLine(p_world[i], id);
       }
     }
     KeyframeMatches km;

@@ -43,8 +43,8 @@ double SyntheticScene::RayCast(const Eigen::Vector3d& origin, const Eigen::Vecto
   return std::max(best, 0.0);
 }
 
-VoxelGrid SyntheticScene::TruthGrid(const GridGeometry& g) const {
-  VoxelGrid grid(g, VoxelState::kFree);
+OccupancyGrid SyntheticScene::TruthGrid(const GridGeometry& g) const {
+  OccupancyGrid grid(g, VoxelState::kFree);
   for (int k = 0; k < g.size.z(); ++k) {
     for (int j = 0; j < g.size.y(); ++j) {
       for (int i = 0; i < g.size.x(); ++i) {

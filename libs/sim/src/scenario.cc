@@ -211,8 +211,12 @@ std::vector<dataset::GroundTruthState> Scenario::GroundTruth() const {
   return gt;
 }
 
-OccupancyGrid Scenario::ComputeOccupancy(double resolution) const {
+dataset::OccupancyGrid Scenario::ComputeOccupancy(double resolution) const {
   return sim::ComputeOccupancy(*impl_->world, resolution);
+}
+
+dataset::GridGeometry Scenario::OccupancyGeometry(double resolution) const {
+  return sim::OccupancyGeometry(*impl_->world, resolution);
 }
 
 }  // namespace mav::sim

@@ -157,7 +157,7 @@ Qos Qos::State() {
 }
 Qos Qos::Command() {
   Qos qos;
-  qos.BestEffort().KeepLast(1).Volatile();
+  qos.Reliable(DDS_SECS(1)).KeepLast(1).Volatile();
   return qos;
 }
 

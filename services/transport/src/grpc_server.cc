@@ -1,8 +1,7 @@
 #include "mav/transport/grpc_server.h"
 
-#include <condition_variable>
 #include <csignal>
-#include <mutex>
+#include <future>
 
 #include <grpcpp/create_channel.h>
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
@@ -146,25 +145,17 @@ Result<HealthStatus> CheckHealth(const std::shared_ptr<grpc::Channel>& channel,
   grpc::GenericStub stub(channel);
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + timeout);
-  std::mutex mutex;
-  std::condition_variable done_cv;
-  bool done = false;
-  grpc::Status rpc_status;
+  std::promise<grpc::Status> done;
+  std::future<grpc::Status> answer = done.get_future();
   stub.UnaryCall(&context, "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request_buffer,
-                 &response_buffer, [&](grpc::Status s) {
-                   std::lock_guard<std::mutex> lock(mutex);
-                   rpc_status = std::move(s);
-                   done = true;
-                   done_cv.notify_one();
-                 });
-  {
-    std::unique_lock<std::mutex> lock(mutex);
-    done_cv.wait(lock, [&] { return done; });
-  }
+                 &response_buffer, [&done](grpc::Status s) { done.set_value(std::move(s)); });
+  const grpc::Status rpc_status = answer.get();
   if (!rpc_status.ok()) {
     if (rpc_status.error_code() == grpc::StatusCode::NOT_FOUND)
       return HealthStatus::kServiceUnknown;
-    return FromGrpcStatus(rpc_status).WithContext("health check");
+    return Status::Unavailable("health check: gRPC code " +
+                               std::to_string(rpc_status.error_code()) + ": " +
+                               rpc_status.error_message());
   }
   std::vector<grpc::Slice> slices;
   if (!response_buffer.Dump(&slices).ok()) return Status::Internal("health check: bad response");
@@ -192,73 +183,6 @@ const char* HealthStatusName(HealthStatus status) {
       return "SERVICE_UNKNOWN";
   }
   return "?";
-}
-
-grpc::Status ToGrpcStatus(const Status& status) {
-  grpc::StatusCode code = grpc::StatusCode::UNKNOWN;
-  switch (status.code()) {
-    case StatusCode::kOk:
-      return grpc::Status::OK;
-    case StatusCode::kInvalidArgument:
-      code = grpc::StatusCode::INVALID_ARGUMENT;
-      break;
-    case StatusCode::kNotFound:
-      code = grpc::StatusCode::NOT_FOUND;
-      break;
-    case StatusCode::kFailedPrecondition:
-      code = grpc::StatusCode::FAILED_PRECONDITION;
-      break;
-    case StatusCode::kOutOfRange:
-      code = grpc::StatusCode::OUT_OF_RANGE;
-      break;
-    case StatusCode::kDataLoss:
-      code = grpc::StatusCode::DATA_LOSS;
-      break;
-    case StatusCode::kIoError:
-    case StatusCode::kInternal:
-      code = grpc::StatusCode::INTERNAL;
-      break;
-    case StatusCode::kUnavailable:
-      code = grpc::StatusCode::UNAVAILABLE;
-      break;
-    case StatusCode::kResourceExhausted:
-      code = grpc::StatusCode::RESOURCE_EXHAUSTED;
-      break;
-    case StatusCode::kDeadlineExceeded:
-      code = grpc::StatusCode::DEADLINE_EXCEEDED;
-      break;
-    case StatusCode::kCancelled:
-      code = grpc::StatusCode::CANCELLED;
-      break;
-  }
-  return grpc::Status(code, status.message());
-}
-
-Status FromGrpcStatus(const grpc::Status& status) {
-  switch (status.error_code()) {
-    case grpc::StatusCode::OK:
-      return Status::Ok();
-    case grpc::StatusCode::INVALID_ARGUMENT:
-      return Status::InvalidArgument(status.error_message());
-    case grpc::StatusCode::NOT_FOUND:
-      return Status::NotFound(status.error_message());
-    case grpc::StatusCode::FAILED_PRECONDITION:
-      return Status::FailedPrecondition(status.error_message());
-    case grpc::StatusCode::OUT_OF_RANGE:
-      return Status::OutOfRange(status.error_message());
-    case grpc::StatusCode::DATA_LOSS:
-      return Status::DataLoss(status.error_message());
-    case grpc::StatusCode::UNAVAILABLE:
-      return Status::Unavailable(status.error_message());
-    case grpc::StatusCode::DEADLINE_EXCEEDED:
-      return Status::DeadlineExceeded(status.error_message());
-    case grpc::StatusCode::RESOURCE_EXHAUSTED:
-      return Status::ResourceExhausted(status.error_message());
-    case grpc::StatusCode::CANCELLED:
-      return Status::Cancelled(status.error_message());
-    default:
-      return Status::Internal(status.error_message());
-  }
 }
 
 }  // namespace mav::transport

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/dataset/stereo_pair.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/scenario.h"
@@ -87,9 +88,9 @@ TEST(MavSimCli, GenerateThenReadReproducesRenderingExactly) {
 
   EXPECT_TRUE(fs::exists(out + "/ground_truth/occupancy.bt"));
   EXPECT_TRUE(fs::exists(out + "/ground_truth/scenario.yaml"));
-  auto grid = sim::OccupancyGrid::Read(out + "/ground_truth/occupancy.mavocc");
+  auto grid = dataset::ReadMavocc(out + "/ground_truth/occupancy.mavocc");
   ASSERT_TRUE(grid.ok()) << grid.status().ToString();
-  EXPECT_GT(grid->Count(sim::VoxelState::kOccupied), 0);
+  EXPECT_GT(grid->Count(dataset::VoxelState::kOccupied), 0);
 
   // info and preview work on it.
   const RunResult info = RunMavSim("info " + out);

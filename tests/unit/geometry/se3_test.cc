@@ -104,4 +104,17 @@ TEST(SE3Test, RollPitchYawOrder) {
 }
 
 }  // namespace
+TEST(SensorFramesTest, BodyPoseFromSensorPoseAndOdometry) {
+  const SE3 T_body_sensor = SE3::Exp((Vector6d() << 0.03, -0.07, 0.1, 0.2, -0.1, 0.3).finished());
+  const SE3 T_world_body0 = SE3::Exp((Vector6d() << 1, 2, 3, 0.0, 0.1, 1.0).finished());
+  const SE3 T_world_body1 = SE3::Exp((Vector6d() << 1.5, 2, 2.5, 0.1, 0.1, 1.2).finished());
+  // The sensor's poses of both body poses, and its odometry from the first.
+  const SE3 T_world_sensor1 = T_world_body1 * T_body_sensor;
+  const SE3 T_sensor0_sensor1 = (T_world_body0 * T_body_sensor).Inverse() * T_world_sensor1;
+  EXPECT_TRUE(
+      BodyPoseFromSensorPose(T_world_sensor1, T_body_sensor).IsApprox(T_world_body1, 1e-12));
+  EXPECT_TRUE(BodyPoseFromSensorOdometry(T_world_body0, T_body_sensor, T_sensor0_sensor1)
+                  .IsApprox(T_world_body1, 1e-12));
+}
+
 }  // namespace mav::geometry

@@ -6,7 +6,10 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+
 #include <opencv2/core.hpp>
+#include "tests/common/numeric.h"
+#include "tests/common/pose_matchers.h"
 
 #include "mav/camera/stereo.h"
 #include "mav/eval/trajectory_metrics.h"
@@ -146,7 +149,7 @@ void RunAndCheck(const std::vector<SE3>& poses, const DenseVoOptions& options,
     ASSERT_EQ(result->state, TrackingState::kOk) << "frame " << k << ": " << result->lost_reason;
     if (k == 0) {
       EXPECT_TRUE(result->reference_reset);
-      EXPECT_TRUE(result->T_world_cam.IsApprox(poses[0], 1e-12));
+      EXPECT_THAT(result->T_world_cam, test_support::IsNearPose(poses[0], 1e-12, 1e-6));
       continue;
     }
     const SE3 truth = poses[k - 1].Inverse() * poses[k];
@@ -302,14 +305,12 @@ TEST(DenseVoJacobianTest, ProjectionTwistJacobianMatchesNumeric) {
       const Eigen::Vector3d q = SE3::Exp(xi) * p;
       return Eigen::Vector2d(fx * q.x() / q.z(), fy * q.y() / q.z());
     };
-    const double h = 1e-6;
+    const Eigen::Matrix<double, 2, 6> numeric =
+        test_support::NumericJacobian<2, 6>(project, geometry::Vector6d::Zero());
     for (int k = 0; k < 6; ++k) {
-      geometry::Vector6d d = geometry::Vector6d::Zero();
-      d[k] = h;
-      const Eigen::Vector2d numeric = (project(d) - project(-d)) / (2 * h);
-      EXPECT_NEAR(numeric.x(), analytic(0, k), 1e-4 * (1 + std::abs(numeric.x())))
+      EXPECT_NEAR(numeric(0, k), analytic(0, k), 1e-4 * (1 + std::abs(numeric(0, k))))
           << "trial " << trial << " column " << k;
-      EXPECT_NEAR(numeric.y(), analytic(1, k), 1e-4 * (1 + std::abs(numeric.y())))
+      EXPECT_NEAR(numeric(1, k), analytic(1, k), 1e-4 * (1 + std::abs(numeric(1, k))))
           << "trial " << trial << " column " << k;
     }
   }
@@ -336,12 +337,14 @@ TEST(DenseVoJacobianTest, PhotometricJacobianMatchesNumeric) {
     // image follows the central-difference gradient to within a few percent.
     const double h_t = 0.3 * z / fx, h_r = 0.3 / fx;
     const double scale = analytic.norm();
+    geometry::Vector6d steps;
+    steps << h_t, h_t, h_t, h_r, h_r, h_r;
+    const Eigen::Matrix<double, 1, 6> numeric = test_support::NumericJacobian<1, 6>(
+        [&](const geometry::Vector6d& d) { return Eigen::Matrix<double, 1, 1>(intensity(d)); },
+        geometry::Vector6d::Zero(), steps);
     for (int k = 0; k < 6; ++k) {
-      geometry::Vector6d d = geometry::Vector6d::Zero();
-      const double h = k < 3 ? h_t : h_r;
-      d[k] = h;
-      const double numeric = (intensity(d) - intensity(-d)) / (2 * h);
-      EXPECT_NEAR(numeric, analytic[k], 0.05 * scale + 0.05) << "trial " << trial << " col " << k;
+      EXPECT_NEAR(numeric[k], analytic[k], 0.05 * scale + 0.05)
+          << "trial " << trial << " col " << k;
     }
     ++checked;
   }
@@ -377,7 +380,8 @@ TEST(DenseVoTest, BlackFramesAreLostWithoutNaNAndTrackingRecovers) {
       EXPECT_EQ(result->state, TrackingState::kLost) << "frame " << k;
       EXPECT_FALSE(result->lost_reason.empty());
       EXPECT_FALSE(result->new_keyframe);
-      EXPECT_TRUE(result->T_world_cam.IsApprox(last_good, 1e-12)) << "pose held, frame " << k;
+      EXPECT_THAT(result->T_world_cam, test_support::IsNearPose(last_good, 1e-12, 1e-6))
+          << "pose held, frame " << k;
     } else {
       EXPECT_EQ(result->state, TrackingState::kOk) << "frame " << k << ": " << result->lost_reason;
       EXPECT_TRUE(result->lost_reason.empty());
@@ -412,8 +416,8 @@ TEST(DenseVoTest, SuddenBlackFrameWhileTrackingIsLost) {
   ASSERT_TRUE(result.ok());
   EXPECT_EQ(result->state, TrackingState::kLost);
   EXPECT_FALSE(result->lost_reason.empty());
-  EXPECT_TRUE(result->T_world_cam.IsApprox(SE3(), 1e-12));
-  EXPECT_TRUE(result->T_prev_cur.IsApprox(SE3(), 1e-12));
+  EXPECT_THAT(result->T_world_cam, test_support::IsNearPose(SE3(), 1e-12, 1e-6));
+  EXPECT_THAT(result->T_prev_cur, test_support::IsNearPose(SE3(), 1e-12, 1e-6));
 }
 
 TEST(DenseVoTest, FrameWithoutStereoDepthCannotBeAKeyframe) {
@@ -430,7 +434,7 @@ TEST(DenseVoTest, FrameWithoutStereoDepthCannotBeAKeyframe) {
   EXPECT_NE(result->lost_reason.find("pixels with depth and gradient"), std::string::npos)
       << result->lost_reason;
   EXPECT_FALSE(result->new_keyframe);
-  EXPECT_TRUE(result->T_world_cam.IsApprox(SE3(), 1e-12));
+  EXPECT_THAT(result->T_world_cam, test_support::IsNearPose(SE3(), 1e-12, 1e-6));
 }
 
 TEST(DenseVoTest, BadImagesAreRejectedNamingTheField) {
@@ -492,7 +496,7 @@ TEST(DenseVoTest, ResetStartsAgainAtTheInitialPose) {
   room.RenderStereo(rig, SE3(), &left, &right);
   auto first = vo->ProcessFrame(0, left, right);
   ASSERT_TRUE(first.ok());
-  EXPECT_TRUE(first->T_world_cam.IsApprox(T0, 1e-12));
+  EXPECT_THAT(first->T_world_cam, test_support::IsNearPose(T0, 1e-12, 1e-6));
   room.RenderStereo(rig, SE3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.03, 0, 0)), &left,
                     &right);
   auto second = vo->ProcessFrame(1, left, right);
@@ -500,7 +504,7 @@ TEST(DenseVoTest, ResetStartsAgainAtTheInitialPose) {
   EXPECT_NEAR((second->T_world_cam.Translation() - T0.Translation()).norm(), 0.03, 3e-4);
   vo->Reset();
   EXPECT_EQ(vo->frames_processed(), 0);
-  EXPECT_TRUE(vo->T_world_cam().IsApprox(T0, 1e-12));
+  EXPECT_THAT(vo->T_world_cam(), test_support::IsNearPose(T0, 1e-12, 1e-6));
   auto again = vo->ProcessFrame(2, left, right);
   ASSERT_TRUE(again.ok());
   EXPECT_TRUE(again->reference_reset);

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/common/numeric.h"
+
 #include "synthetic_stereo.h"
 
 namespace mav::localization {
@@ -51,16 +53,13 @@ TEST(StereoMotionTest, JacobianMatchesNumericDerivative) {
     Eigen::Vector4d r;
     Matrix46d J;
     ASSERT_TRUE(StereoReprojectionResidual(rig, T, p, obs, &r, &J));
-    Matrix46d numeric;
-    const double h = 1e-6;
-    for (int k = 0; k < 6; ++k) {
-      Vector6d d = Vector6d::Zero();
-      d(k) = h;
-      Eigen::Vector4d rp, rm;
-      ASSERT_TRUE(StereoReprojectionResidual(rig, SE3::Exp(d) * T, p, obs, &rp, nullptr));
-      ASSERT_TRUE(StereoReprojectionResidual(rig, SE3::Exp(-d) * T, p, obs, &rm, nullptr));
-      numeric.col(k) = (rp - rm) / (2 * h);
-    }
+    const Matrix46d numeric = test_support::NumericJacobian<4, 6>(
+        [&](const Vector6d& d) {
+          Eigen::Vector4d residual = Eigen::Vector4d::Constant(std::nan(""));
+          EXPECT_TRUE(StereoReprojectionResidual(rig, SE3::Exp(d) * T, p, obs, &residual, nullptr));
+          return residual;
+        },
+        Vector6d::Zero());
     EXPECT_LT((J - numeric).norm(), 1e-5 * (1.0 + J.norm())) << "analytic\n"
                                                              << J << "\nnumeric\n"
                                                              << numeric;

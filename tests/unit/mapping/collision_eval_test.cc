@@ -37,7 +37,7 @@ TEST(MatthewsCorrelationTest, UndefinedIsZero) {
 // -> TP 0, FN 2 (positions 1, 2), TN 1 (position 0), FP 2 (positions 3, 4).
 TEST(EvaluateCollisionsTest, HandMadeRow) {
   const GridGeometry g = Geometry(6, 1, 1);
-  VoxelGrid truth(g, VoxelState::kFree), computed(g, VoxelState::kFree);
+  OccupancyGrid truth(g, VoxelState::kFree), computed(g, VoxelState::kFree);
   truth.set({2, 0, 0}, VoxelState::kOccupied);
   computed.set({4, 0, 0}, VoxelState::kOccupied);
   computed.set({5, 0, 0}, VoxelState::kUnknown);
@@ -57,7 +57,7 @@ TEST(EvaluateCollisionsTest, HandMadeRow) {
 
 TEST(EvaluateCollisionsTest, UnknownHandlingIsAnOption) {
   const GridGeometry g = Geometry(6, 1, 1);
-  VoxelGrid truth(g, VoxelState::kFree), computed(g, VoxelState::kFree);
+  OccupancyGrid truth(g, VoxelState::kFree), computed(g, VoxelState::kFree);
   truth.set({2, 0, 0}, VoxelState::kOccupied);
   computed.set({4, 0, 0}, VoxelState::kOccupied);
   computed.set({5, 0, 0}, VoxelState::kUnknown);
@@ -85,7 +85,7 @@ TEST(EvaluateCollisionsTest, UnknownHandlingIsAnOption) {
 // one position containing it is the box at the origin. Computed identical -> MCC 1.
 TEST(EvaluateCollisionsTest, PerfectMatchIsOne) {
   const GridGeometry g = Geometry(4, 4, 4);
-  VoxelGrid truth(g, VoxelState::kFree);
+  OccupancyGrid truth(g, VoxelState::kFree);
   truth.set({0, 0, 0}, VoxelState::kOccupied);
   CollisionEvalOptions options;
   options.box_size = Eigen::Vector3d(0.2, 0.2, 0.2);
@@ -96,7 +96,7 @@ TEST(EvaluateCollisionsTest, PerfectMatchIsOne) {
   EXPECT_EQ(r->correct_free, 26);
   EXPECT_NEAR(r->Mcc(), 1.0, 1e-12);
   // An all-occupied computed grid: TP 1, FP 26 -> MCC undefined (no computed free) -> 0.
-  const VoxelGrid all(g, VoxelState::kOccupied);
+  const OccupancyGrid all(g, VoxelState::kOccupied);
   const auto r2 = EvaluateCollisions(truth, all, options);
   ASSERT_TRUE(r2.ok());
   EXPECT_EQ(r2->false_collision, 26);
@@ -107,8 +107,8 @@ TEST(EvaluateCollisionsTest, PerfectMatchIsOne) {
 }
 
 TEST(EvaluateCollisionsTest, BadInputIsAnError) {
-  const VoxelGrid a(Geometry(4, 4, 4), VoxelState::kFree);
-  const VoxelGrid b(Geometry(4, 4, 5), VoxelState::kFree);
+  const OccupancyGrid a(Geometry(4, 4, 4), VoxelState::kFree);
+  const OccupancyGrid b(Geometry(4, 4, 5), VoxelState::kFree);
   auto r = EvaluateCollisions(a, b);
   ASSERT_FALSE(r.ok());
   EXPECT_NE(r.status().message().find("computed"), std::string::npos);
@@ -128,7 +128,7 @@ TEST(EvaluateCollisionsTest, BadInputIsAnError) {
 
 TEST(BoxQueryTest, MatchesBruteForce) {
   const GridGeometry g = Geometry(7, 5, 6);
-  VoxelGrid grid(g, VoxelState::kFree);
+  OccupancyGrid grid(g, VoxelState::kFree);
   uint32_t state = 12345;
   for (int64_t i = 0; i < grid.num_voxels(); ++i) {
     state = state * 1664525u + 1013904223u;
@@ -156,7 +156,7 @@ TEST(BoxQueryTest, MatchesBruteForce) {
   }
   // Outside the grid counts as unknown.
   EXPECT_EQ(q.Unknown({-1, 0, 0}, {0, 1, 1}), 1);
-  const VoxelGrid free_grid(g, VoxelState::kFree);
+  const OccupancyGrid free_grid(g, VoxelState::kFree);
   const BoxQuery fq(free_grid);
   EXPECT_EQ(fq.Query(g.origin + Eigen::Vector3d::Constant(0.15),
                      g.origin + Eigen::Vector3d::Constant(0.35)),

@@ -314,7 +314,7 @@ TEST(BuildMeshTest, SyntheticRoomCollisionMcc) {
   g.origin = Eigen::Vector3d(-0.2, -0.2, -0.2);
   g.resolution = 0.05;
   g.size = Eigen::Vector3i(168, 128, 68);
-  const VoxelGrid truth = scene.TruthGrid(g);
+  const OccupancyGrid truth = scene.TruthGrid(g);
   const auto grid = MeshToOccupancy(*meshing, points, keyframes, g);
   ASSERT_TRUE(grid.ok());
   const auto eval = EvaluateCollisions(truth, *grid);
@@ -322,7 +322,7 @@ TEST(BuildMeshTest, SyntheticRoomCollisionMcc) {
   std::printf(
       "room: %d points, %lld rays, %d cells, %.2f s; MCC %.3f  FC %.2f MC %.2f CC %.2f CF %.2f\n",
       static_cast<int>(points.size()), static_cast<long long>(meshing->stats.num_rays),
-      meshing->stats.num_finite_cells, meshing->stats.seconds_total, eval->Mcc(),
+      meshing->stats.num_finite_cells, meshing->stats.total_s, eval->Mcc(),
       eval->Percent(eval->false_collision), eval->Percent(eval->missed_collision),
       eval->Percent(eval->correct_collision), eval->Percent(eval->correct_free));
   EXPECT_GE(eval->Mcc(), 0.85);

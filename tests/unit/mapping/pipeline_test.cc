@@ -28,14 +28,6 @@ camera::RectifiedStereo Rig() {
   return s;
 }
 
-VoxelGrid ToVoxelGrid(const sim::OccupancyGrid& g) {
-  GridGeometry geometry{g.origin(), g.resolution(), g.size()};
-  std::vector<VoxelState> states(g.states().size());
-  static_assert(sizeof(VoxelState) == sizeof(sim::VoxelState));
-  std::memcpy(states.data(), g.states().data(), states.size());
-  return VoxelGrid(geometry, std::move(states));
-}
-
 TEST(MappingPipelineOptionsTest, NamesNestedFields) {
   std::string why;
   EXPECT_TRUE(MappingPipelineOptions().IsValid(&why)) << why;
@@ -149,7 +141,7 @@ TEST(MappingPipelineTest, ShortRoomPresetMeshBeatsOctomapBaseline) {
     ASSERT_TRUE(pipeline->InsertKeyframe(left[i], right[i], poses[i]).ok());
   }
 
-  const VoxelGrid truth = ToVoxelGrid(scenario->ComputeOccupancy(0.05));
+  const OccupancyGrid truth = scenario->ComputeOccupancy(0.05);
   auto out = pipeline->Finish(truth.geometry());
   ASSERT_TRUE(out.ok()) << out.status().ToString();
   EXPECT_EQ(out->keyframes, static_cast<int64_t>(keyframes.size()));

@@ -388,6 +388,35 @@ TEST(SparsePointsTest, SightPointsAddVerifiedUnselectedMatches) {
   EXPECT_TRUE(cloud->SightPoints().empty());
 }
 
+// The extra lines of sight are capped (memory bounded by configuration); the ones beyond are
+// counted, the points themselves are unaffected.
+TEST(SparsePointsTest, SightLinesAreCappedAndTheDropsCounted) {
+  const camera::RectifiedStereo rig = Rig();
+  const SyntheticPoints good = MakeWallPoints(60, 5);
+  SparsePointsOptions options;
+  options.target_points_per_keyframe = 10;
+  options.merge_window_keyframes = 0;
+  options.max_sight_lines = 30;
+  auto cloud = SparsePointCloud::Create(rig, options);
+  ASSERT_TRUE(cloud.ok());
+  const geometry::SE3 poses[2] = {PoseLookingAlongX({0.0, 0.0, 1.5}),
+                                  PoseLookingAlongX({0.3, 0.3, 1.5})};
+  for (int k = 0; k < 2; ++k) {
+    std::vector<StereoObservation> obs;
+    for (size_t i = 0; i < good.p_world.size(); ++i) {
+      obs.push_back(*Observe(rig, poses[k], good.p_world[i], good.classes[i], good.descriptors[i]));
+    }
+    ASSERT_TRUE(cloud->AddKeyframeObservations(obs, poses[k]).ok());
+  }
+  EXPECT_EQ(cloud->num_points(), 20);
+  EXPECT_EQ(cloud->SightPoints().size() - cloud->AllPoints().size(), 30u);
+  EXPECT_GE(cloud->stats().sight_lines_dropped, 60);
+  options.max_sight_lines = -1;
+  std::string why;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_EQ(why.rfind("max_sight_lines", 0), 0u) << why;
+}
+
 TEST(SparsePointsOptionsTest, NamesTheInvalidVerificationField) {
   std::string why;
   SparsePointsOptions o;

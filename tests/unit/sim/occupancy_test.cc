@@ -11,6 +11,7 @@
 #include <octomap/OcTree.h>
 
 #include "mav/common/file.h"
+#include "mav/dataset/occupancy_io.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/presets.h"
 #include "mav/sim/world.h"
@@ -18,6 +19,9 @@
 namespace mav::sim {
 namespace {
 
+using dataset::GridGeometry;
+using dataset::OccupancyGrid;
+using dataset::VoxelState;
 using Eigen::Vector3d;
 using Eigen::Vector3i;
 
@@ -184,8 +188,8 @@ TEST(OccupancyTest, RoomSolidsAreOccupiedAndTheRoomIsFree) {
 TEST(OccupancyTest, MavoccRoundTripIsExact) {
   const OccupancyGrid& g = RoomGrid();
   const std::string path = TempPath("room.mavocc");
-  ASSERT_TRUE(g.Write(path).ok());
-  Result<OccupancyGrid> r = OccupancyGrid::Read(path);
+  ASSERT_TRUE(dataset::WriteMavocc(g, path).ok());
+  Result<OccupancyGrid> r = dataset::ReadMavocc(path);
   ASSERT_TRUE(r.ok()) << r.status().ToString();
   EXPECT_EQ(r->origin(), g.origin());
   EXPECT_EQ(r->resolution(), g.resolution());
@@ -197,12 +201,12 @@ TEST(OccupancyTest, MavoccRoundTripIsExact) {
 TEST(OccupancyTest, CorruptTruncatedOrMissingFilesAreReported) {
   const OccupancyGrid& g = RoomGrid();
   const std::string path = TempPath("bad.mavocc");
-  ASSERT_TRUE(g.Write(path).ok());
+  ASSERT_TRUE(dataset::WriteMavocc(g, path).ok());
   const std::string good = *ReadFileToString(path);
 
   auto expect_loss = [&](const std::string& bytes, const std::string& what) {
     ASSERT_TRUE(WriteStringToFileAtomic(path, bytes).ok());
-    Result<OccupancyGrid> r = OccupancyGrid::Read(path);
+    Result<OccupancyGrid> r = dataset::ReadMavocc(path);
     ASSERT_FALSE(r.ok()) << what;
     EXPECT_EQ(r.status().code(), StatusCode::kDataLoss) << what;
     EXPECT_NE(r.status().message().find(path), std::string::npos) << r.status().message();
@@ -220,7 +224,7 @@ TEST(OccupancyTest, CorruptTruncatedOrMissingFilesAreReported) {
   expect_loss("", "empty");
   std::remove(path.c_str());
 
-  Result<OccupancyGrid> missing = OccupancyGrid::Read(TempPath("does_not_exist.mavocc"));
+  Result<OccupancyGrid> missing = dataset::ReadMavocc(TempPath("does_not_exist.mavocc"));
   ASSERT_FALSE(missing.ok());
   EXPECT_EQ(missing.status().code(), StatusCode::kNotFound);
   EXPECT_NE(missing.status().message().find("does_not_exist.mavocc"), std::string::npos);
@@ -229,7 +233,7 @@ TEST(OccupancyTest, CorruptTruncatedOrMissingFilesAreReported) {
 TEST(OccupancyTest, OctomapFileHasTheRightLeafStates) {
   const OccupancyGrid g = ComputeOccupancy(Room(), 0.1);
   const std::string path = TempPath("room.bt");
-  ASSERT_TRUE(g.WriteOctomap(path).ok());
+  ASSERT_TRUE(dataset::WriteOctomapBt(g, path).ok());
   octomap::OcTree tree(0.1);
   ASSERT_TRUE(tree.readBinary(path));
   EXPECT_NEAR(tree.getResolution(), 0.1, 1e-12);

@@ -108,11 +108,12 @@ TEST(ScenarioTest, PlantRendersAndHasGroundTruthOccupancy) {
   cv::Scalar mu, sigma;
   cv::meanStdDev(l, mu, sigma);
   EXPECT_GT(sigma[0], 5.0);
-  const OccupancyGrid g = s.ComputeOccupancy(0.5);
+  const dataset::OccupancyGrid g = s.ComputeOccupancy(0.5);
   EXPECT_EQ(g.size(), Eigen::Vector3i(100, 100, 81));
-  EXPECT_EQ(g.StateAt(Eigen::Vector3d(-8, -12, 5)), VoxelState::kOccupied);  // inside a tank
-  EXPECT_EQ(g.StateAt(Eigen::Vector3d(0, -20, 20)), VoxelState::kFree);
-  EXPECT_GT(g.Count(VoxelState::kOccupied), 1000);
+  EXPECT_EQ(g.StateAt(Eigen::Vector3d(-8, -12, 5)),
+            dataset::VoxelState::kOccupied);  // inside a tank
+  EXPECT_EQ(g.StateAt(Eigen::Vector3d(0, -20, 20)), dataset::VoxelState::kFree);
+  EXPECT_GT(g.Count(dataset::VoxelState::kOccupied), 1000);
 }
 
 TEST(ScenarioTest, DifficultyIncreasesAcrossRoomPresets) {

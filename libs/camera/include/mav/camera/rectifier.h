@@ -3,6 +3,7 @@
 // Kept out of stereo.h so that only code that rectifies images pulls in OpenCV headers.
 
 #include <memory>
+#include <optional>
 
 #include <opencv2/core/mat.hpp>
 
@@ -48,6 +49,28 @@ class StereoRectifier {
   Eigen::Matrix3d R_rect1_cam1_ = Eigen::Matrix3d::Identity();
   // CV_32FC1 maps (shared so the rectifier copies cheaply).
   std::shared_ptr<const cv::Mat> map0x_, map0y_, map1x_, map1y_;
+};
+
+// A calibrated rig prepared for the rectified-stereo algorithms (VO, mapping): either a raw rig
+// with its StereoRectifier, or a rig whose calibration already is an ideal rectified pair
+// (`calibration_rectified`: no distortion, rows aligned), used as it is.
+//   rig           the rectified left/right pair the algorithms work in;
+//   T_body_rect0  pose of the rectified left camera in the body frame (T_body_cam0 for a
+//                 rectified calibration).
+struct RigRectification {
+  RectifiedStereo rig;
+  geometry::SE3 T_body_rect0;
+  std::optional<StereoRectifier> rectifier;  // empty for a rectified calibration
+
+  // InvalidArgument "calibration: ..." for a bad calibration, or a rig flagged rectified that
+  // has distortion.
+  static Result<RigRectification> Create(const StereoCalibration& calibration,
+                                         bool calibration_rectified);
+
+  // The pair in the rectified geometry: remapped when raw, as it is when `already_rectified` or
+  // when the calibration is rectified (no copy: the outputs share the inputs' pixels then).
+  Status Rectify(const cv::Mat& left, const cv::Mat& right, bool already_rectified,
+                 cv::Mat* rect_left, cv::Mat* rect_right) const;
 };
 
 }  // namespace mav::camera

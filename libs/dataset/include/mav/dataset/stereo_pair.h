@@ -14,6 +14,8 @@ struct StereoPair {
   int64_t t_ns = 0;
   cv::Mat left;   // cam0, CV_8UC1
   cv::Mat right;  // cam1, CV_8UC1
+  // True when the pair is already in the rectified geometry (not remapped by a consumer).
+  bool rectified = false;
 };
 
 }  // namespace mav::dataset

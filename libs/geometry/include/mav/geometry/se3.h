@@ -73,6 +73,17 @@ class SE3 {
 // This is the interpolation ground-truth files assume between samples.
 SE3 InterpolatePose(const SE3& a, const SE3& b, double alpha);
 
+// Frames of a sensor rigidly mounted on a body at T_body_sensor.
+//
+// A pose measured for the sensor, as the pose of the body: T_world_body = T_world_sensor *
+// T_body_sensor^-1 (a localization pose of cam0, a motion-capture marker, a pose sensor).
+SE3 BodyPoseFromSensorPose(const SE3& T_world_sensor, const SE3& T_body_sensor);
+// The sensor's odometry T_sensor0_sensork (its first pose is its origin) as the body's pose in a
+// world where the body started at T_world_body0: the motion conjugated into the body frame,
+//   T_world_body(k) = T_world_body0 * T_body_sensor * T_sensor0_sensork * T_body_sensor^-1.
+SE3 BodyPoseFromSensorOdometry(const SE3& T_world_body0, const SE3& T_body_sensor,
+                               const SE3& T_sensor0_sensork);
+
 // Rotation from roll (about x), pitch (about y), yaw (about z) applied as R = Rz * Ry * Rx.
 Eigen::Matrix3d RotationFromRollPitchYaw(double roll, double pitch, double yaw);
 

@@ -1,8 +1,8 @@
 #pragma once
 // One interface over the stereo odometry methods of the paper (Holzmann et al. 2015, Table 1):
 // sparse feature-based VO in pixel and sub-pixel mode (sparse_vo.h) and dense direct VO
-// (dense_vo.h). The evaluation tool and the localization service hold a StereoOdometry and
-// need not know which method runs.
+// (dense_vo.h). The evaluation tool and the localization service hold a StereoOdometry (through
+// RigOdometry, rig_odometry.h) and need not know which method runs.
 
 #include <memory>
 #include <optional>
@@ -12,6 +12,8 @@
 
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
+#include "mav/localization/dense_vo.h"
+#include "mav/localization/sparse_vo.h"
 #include "mav/localization/types.h"
 
 namespace cv {
@@ -27,6 +29,16 @@ const char* MethodName(Method method);
 std::optional<Method> ParseMethod(std::string_view name);
 const std::vector<Method>& AllMethods();
 
+// The options of every method; Create() uses the one of the method it builds (the sparse mode
+// comes from the method, whatever sparse.mode says).
+struct OdometryOptions {
+  SparseVoOptions sparse;
+  DenseVoOptions dense;
+
+  // The chosen method's options; the message starts with the method ("dense: num_levels ...").
+  bool IsValid(Method method, std::string* why) const;
+};
+
 // The method-independent part of a frame's result.
 struct OdometryFrame {
   int64_t t_ns = 0;
@@ -34,19 +46,31 @@ struct OdometryFrame {
   std::string lost_reason;
   // Pose of the rectified left camera; the world frame is the first frame's camera.
   geometry::SE3 T_world_cam;
+  // This pair started a new track (first pair, or first usable pair after a loss).
+  bool reference_reset = false;
+  // Dense: this pair became the keyframe. Sparse: always false (frame to frame).
+  bool keyframe = false;
+  // Sparse: circular matches. Dense: keyframe pixels.
+  int matches = 0;
   // Sparse: RANSAC inliers. Dense: pixels used in the alignment.
   int support = 0;
   // Sparse: mean reprojection error (px). Dense: robust RMS photometric error (grey levels).
   double residual = 0;
-  // The method's own timing of the frame (ms).
+  // The method's own timing of the frame, ms: features (sparse: filters, NMS, descriptors;
+  // dense: the keyframe depth map), matching (sparse only), motion (sparse: RANSAC + Gauss-Newton;
+  // dense: pyramid + alignment) and the whole frame.
+  double features_ms = 0;
+  double matching_ms = 0;
+  double motion_ms = 0;
   double runtime_ms = 0;
 };
 
 class StereoOdometry {
  public:
-  // InvalidArgument naming the field for an invalid rig.
+  // InvalidArgument naming the field for an invalid rig or invalid options.
   static Result<std::unique_ptr<StereoOdometry>> Create(Method method,
-                                                        const camera::RectifiedStereo& rig);
+                                                        const camera::RectifiedStereo& rig,
+                                                        const OdometryOptions& options = {});
   virtual ~StereoOdometry() = default;
 
   // Rectified CV_8UC1 pair of the rig's size; bad input is InvalidArgument naming "left"/"right".

@@ -25,7 +25,7 @@
 #include <Eigen/Core>
 
 #include "mav/common/status.h"
-#include "mav/mapping/voxel_grid.h"
+#include "mav/mapping/types.h"
 
 namespace mav::mapping {
 
@@ -60,14 +60,15 @@ double MatthewsCorrelation(int64_t tp, int64_t fn, int64_t tn, int64_t fp);
 
 // INVALID_ARGUMENT when the grids' geometries differ, the options are invalid, or the box does not
 // fit in the region (the message names the field).
-Result<CollisionOutcomes> EvaluateCollisions(const VoxelGrid& truth, const VoxelGrid& computed,
+Result<CollisionOutcomes> EvaluateCollisions(const OccupancyGrid& truth,
+                                             const OccupancyGrid& computed,
                                              const CollisionEvalOptions& options = {});
 
 // O(1) box queries on one grid (summed-area tables of occupied and of unknown voxels), for the
 // evaluation and for collision queries by the mapping service.
 class BoxQuery {
  public:
-  explicit BoxQuery(const VoxelGrid& grid);
+  explicit BoxQuery(const OccupancyGrid& grid);
 
   // Counts in the voxel box [min, max) (clamped to the grid; voxels outside the grid count as
   // unknown).

@@ -84,11 +84,11 @@ struct MeshingStats {
   int64_t failed_walks = 0;      // lines of sight dropped (no walk reached the point)
   int num_inside_cells = 0;      // finite cells labelled inside
   double max_flow = 0.0;
-  double seconds_triangulation = 0.0;
-  double seconds_visibility = 0.0;
-  double seconds_graph_cut = 0.0;
-  double seconds_extraction = 0.0;
-  double seconds_total = 0.0;
+  double triangulation_s = 0.0;
+  double visibility_s = 0.0;
+  double graph_cut_s = 0.0;
+  double extraction_s = 0.0;
+  double total_s = 0.0;
 };
 
 struct MeshingResult {

@@ -28,7 +28,6 @@
 #include "mav/common/status.h"
 #include "mav/mapping/delaunay_graph_cut.h"
 #include "mav/mapping/types.h"
-#include "mav/mapping/voxel_grid.h"
 
 namespace mav::mapping {
 
@@ -58,9 +57,10 @@ GridGeometry GridGeometryAround(const std::vector<MapPoint>& points,
 // matches that were not selected as points).
 // With 40 000 or more points the lines of sight are traced on two threads (same result).
 // INVALID_ARGUMENT for an invalid geometry/options or tetrahedra that index outside `points`.
-Result<VoxelGrid> MeshToOccupancy(const MeshingResult& meshing, const std::vector<MapPoint>& points,
-                                  const std::vector<KeyframeView>& keyframes,
-                                  const GridGeometry& geometry,
-                                  const MeshToGridOptions& options = {});
+Result<OccupancyGrid> MeshToOccupancy(const MeshingResult& meshing,
+                                      const std::vector<MapPoint>& points,
+                                      const std::vector<KeyframeView>& keyframes,
+                                      const GridGeometry& geometry,
+                                      const MeshToGridOptions& options = {});
 
 }  // namespace mav::mapping

@@ -44,7 +44,7 @@
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
 #include "mav/geometry/se3.h"
-#include "mav/mapping/voxel_grid.h"
+#include "mav/mapping/types.h"
 
 namespace cv {
 class Mat;
@@ -61,8 +61,12 @@ enum class StereoMatcherType {
 };
 
 struct OctomapMapperOptions {
-  // Octree leaf size [m]; the paper's and our evaluation grids use 5 cm.
+  // Octree leaf size [m]; the paper's and our evaluation grids use 5 cm. OctoMap addresses
+  // 2^16 leaves per axis centred on the world origin, so the map covers +-2^15 * resolution
+  // (+-1638.4 m at 5 cm) on each axis: MaxAbsCoordinateM().
   double resolution = 0.05;
+
+  double MaxAbsCoordinateM() const { return 32768.0 * resolution; }
   // Rays are truncated at this range [m]. Why 5 m: stereo depth noise grows quadratically,
   // sigma_Z = Z^2 sigma_d / (fx b); with EuRoC's fx b ~ 458 px * 0.11 m ~ 50 px m and a quarter-
   // pixel disparity error, sigma_Z is 0.12 m (2.5 voxels) at 5 m and 0.31 m at 8 m, so farther
@@ -181,12 +185,12 @@ class OctomapMapper {
   // non-finite box ("box: ..."), or one outside OctoMap's addressable +-1638 m (at 5 cm).
   Result<BoxOccupancy> Classify(const Eigen::AlignedBox3d& box_world) const;
 
-  // The map sampled onto a dense grid (layout of VoxelGrid / mav::sim::OccupancyGrid, x fastest).
-  // Each grid voxel gets the Classify rule applied to its cube, so grids of another resolution
-  // or alignment stay conservative. When origin / resolution are multiples of the map resolution
-  // each grid voxel is exactly one octree voxel. Cost O(leaves + voxels).
+  // The map sampled onto a dense grid (layout of OccupancyGrid / mav::dataset::OccupancyGrid, x
+  // fastest). Each grid voxel gets the Classify rule applied to its cube, so grids of another
+  // resolution or alignment stay conservative. When origin / resolution are multiples of the map
+  // resolution each grid voxel is exactly one octree voxel. Cost O(leaves + voxels).
   // InvalidArgument "geometry: ..." for an invalid geometry.
-  Result<VoxelGrid> ToGrid(const GridGeometry& geometry) const;
+  Result<OccupancyGrid> ToGrid(const GridGeometry& geometry) const;
 
   // OctoMap binary (.bt, maximum-likelihood occupied/free leaves; octovis reads it). IoError
   // naming the path when writing fails.

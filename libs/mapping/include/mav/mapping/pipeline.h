@@ -15,8 +15,10 @@
 //
 // Both mappers see exactly the same keyframes. Per keyframe only the per-keyframe work runs
 // (sparse stereo points, dense stereo + ray casting); the meshing and both grid conversions run
-// in Finish(), after the last frame, as in the paper ("After receiving the last frame, we put all
-// stored data into a multi-view meshing algorithm").
+// in Build() (one method) or Finish() (both, for the paper's tables), after the last frame, as in
+// the paper ("After receiving the last frame, we put all stored data into a multi-view meshing
+// algorithm"). The mapping service's BuildMap runs Build(): the service and mav-eval produce the
+// same grid from the same keyframes.
 //
 // Runtime of a method for the whole data set (the paper's Table 3) = the sum of its per-keyframe
 // work + its Finish() work, measured with a monotonic wall clock. Reading and rectifying the
@@ -26,11 +28,13 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
+#include "mav/common/termination.h"
 #include "mav/geometry/se3.h"
 #include "mav/mapping/delaunay_graph_cut.h"
 #include "mav/mapping/keyframes.h"
@@ -38,7 +42,6 @@
 #include "mav/mapping/octomap_mapper.h"
 #include "mav/mapping/sparse_points.h"
 #include "mav/mapping/types.h"
-#include "mav/mapping/voxel_grid.h"
 
 namespace cv {
 class Mat;
@@ -105,15 +108,50 @@ struct MappingOutput {
   std::vector<MapPoint> points;              // the global sparse cloud with visibility
   std::vector<KeyframeView> keyframe_views;  // camera centres (ids index keyframe_poses)
   MeshingResult meshing;                     // mesh, labelled tetrahedra, stats
-  VoxelGrid sparse_mesh_grid;                // on the geometry given to Finish()
+  OccupancyGrid sparse_mesh_grid;            // on the geometry given to Finish()
   int64_t lines_of_sight = 0;                // given to MeshToOccupancy (SightPoints())
   SparsePointsStats sparse_stats;
   SparseMeshTiming sparse_mesh_timing;
 
   bool has_octomap = false;
-  VoxelGrid octomap_grid;  // on the geometry given to Finish()
+  OccupancyGrid octomap_grid;  // on the geometry given to Finish()
   OctomapMapperStats octomap_stats;
   OctomapTiming octomap_timing;
+};
+
+// Options of one Build().
+struct BuildOptions {
+  // Sparse mesh: the mesher's options (unset: the pipeline's) and the minimum number of keyframes
+  // that saw a point for it to be meshed ([1, 100]; the lines of sight are kept for all).
+  std::optional<MeshingOptions> meshing;
+  int min_visibility = 1;
+
+  bool IsValid(std::string* why) const;
+};
+
+// One method's map from the keyframes inserted so far.
+struct MethodMap {
+  MappingMethod method = MappingMethod::kSparseMesh;
+  int64_t keyframes = 0;
+  OccupancyGrid grid;  // on the geometry given to Build()
+
+  // Sparse mesh only.
+  std::vector<MapPoint> points;              // the points meshed (after min_visibility)
+  std::vector<KeyframeView> keyframe_views;  // camera centres (ids index the keyframes)
+  MeshingResult meshing;                     // mesh, labelled tetrahedra, stats
+  int64_t lines_of_sight = 0;                // given to MeshToOccupancy (SightPoints())
+
+  // Octomap only: range points inserted over all keyframes.
+  int64_t range_points = 0;
+
+  // Wall time, ms: the method's per-keyframe work over all keyframes so far, and this build's
+  // stages (meshing = Delaunay + visibility + graph cut + surface; prune = the octree's final
+  // pruning; to_grid = mesh or octree -> grid).
+  double per_keyframe_ms = 0;
+  double meshing_ms = 0;
+  double prune_ms = 0;
+  double to_grid_ms = 0;
+  double build_ms = 0;
 };
 
 class MappingPipeline {
@@ -141,9 +179,25 @@ class MappingPipeline {
   Result<bool> AddFrame(const cv::Mat& left, const cv::Mat& right,
                         const geometry::SE3& T_world_cam);
 
-  // Meshes the sparse cloud and samples both maps onto `geometry` (pass the ground truth's to
-  // compare voxel by voxel). FailedPrecondition without keyframes; the mesher's errors (e.g.
-  // fewer than 4 affinely independent points) are passed on with "sparse-mesh: " in front.
+  // The map of one method on `geometry`: for the sparse mesh, meshing (Labatut et al. 2007) of
+  // the points seen by >= min_visibility keyframes and MeshToOccupancy with every line of sight;
+  // for OctoMap, the octree's pruning and ToGrid. Keyframes keep arriving afterwards; Build may be
+  // called again. FailedPrecondition without keyframes, for a method the pipeline does not run,
+  // or with fewer than 4 points to mesh ("empty map: ..."); InvalidArgument naming the field
+  // ("geometry: ...", "meshing.<f>: ..."); the mesher's errors with "sparse-mesh: " in front.
+  // `termination` is checked between the stages (DEADLINE_EXCEEDED / CANCELLED: nothing is
+  // kept); `progress` reports "meshing" (0.1), "mesh to grid" (0.7), "octree to grid" (0.2).
+  Result<MethodMap> Build(MappingMethod method, const GridGeometry& geometry,
+                          const BuildOptions& options = {}, const Termination& termination = {},
+                          const ProgressCallback& progress = {});
+
+  // The grid around the keyframe camera centres and the points seen by >= min_visibility
+  // keyframes, grown by `padding_m` (GridGeometryAround). The geometry only: check its
+  // num_voxels() against a limit before building.
+  GridGeometry GeometryAround(double resolution, double padding_m, int min_visibility = 1) const;
+
+  // Build() of every method the pipeline runs, with the pipeline's options, on `geometry` (pass
+  // the ground truth's to compare voxel by voxel), with the paper's whole-data-set timing.
   Result<MappingOutput> Finish(const GridGeometry& geometry);
 
   int64_t num_frames() const;

@@ -119,6 +119,12 @@ struct SparsePointsOptions {
   // Extract the left and right features on two threads (the images are independent).
   bool parallel_extraction = true;
 
+  // Cap on the extra lines of sight kept for the free space (SightPoints(): 32 bytes each); the
+  // ones beyond are dropped and counted (SparsePointsStats::sight_lines_dropped). A full room
+  // preset keeps 0.35-0.65 M; 4 M bound them to 128 MiB whatever a session streams. 0 = keep
+  // none.
+  int64_t max_sight_lines = 4'000'000;
+
   // False with the offending field named in *why ("max_depth_m: must exceed min_depth_m ...",
   // "features.nms_radius: ...").
   bool IsValid(std::string* why) const;
@@ -152,6 +158,7 @@ struct SparseKeyframeStats {
 
 struct SparsePointsStats {
   std::vector<SparseKeyframeStats> keyframes;
+  int64_t sight_lines_dropped = 0;  // beyond SparsePointsOptions::max_sight_lines
   double TotalMs() const;
   double TotalExtractionMs() const;
   double TotalMatchingMs() const;
@@ -246,7 +253,14 @@ class SparsePointCloud {
   std::vector<geometry::SE3> T_world_cams_;
   std::vector<std::vector<int>> keyframe_tracks_;  // tracks observed by each keyframe
   std::vector<KeyframeMatches> recent_matches_;    // the last verify_window_keyframes keyframes
-  std::vector<MapPoint> extra_sight_lines_;        // supported matches that became no point
+  // A supported match that became no point: a line of sight from keyframe `keyframe`, stored
+  // compactly (a MapPoint's visibility vector would cost a heap allocation per line).
+  struct SightLine {
+    Eigen::Vector3d p_world;
+    int keyframe = 0;
+  };
+  void AddSightLine(const Eigen::Vector3d& p_world, int keyframe);
+  std::vector<SightLine> extra_sight_lines_;  // at most options_.max_sight_lines
   SparsePointsStats stats_;
   std::unique_ptr<Extractors> extractors_;
 };

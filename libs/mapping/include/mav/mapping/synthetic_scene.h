@@ -10,7 +10,6 @@
 #include <Eigen/Core>
 
 #include "mav/mapping/types.h"
-#include "mav/mapping/voxel_grid.h"
 
 namespace mav::mapping {
 
@@ -26,7 +25,7 @@ struct SyntheticScene {
   double RayCast(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) const;
   // Exact ground truth: kOccupied where the voxel cube overlaps solid with positive volume,
   // kFree elsewhere.
-  VoxelGrid TruthGrid(const GridGeometry& geometry) const;
+  OccupancyGrid TruthGrid(const GridGeometry& geometry) const;
 };
 
 // An 8 x 6 x 3 m room with a table, a cabinet, a pillar and a crate.

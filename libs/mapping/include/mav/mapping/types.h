@@ -7,7 +7,14 @@
 
 #include <Eigen/Core>
 
+#include "mav/dataset/occupancy_grid.h"
+
 namespace mav::mapping {
+
+// The stack's one grid type (mav/dataset/occupancy_grid.h), named here for the mapping code.
+using dataset::GridGeometry;
+using dataset::OccupancyGrid;
+using dataset::VoxelState;
 
 // A camera (keyframe) that observed points. Only its optical centre matters for the lines of sight
 // of Labatut et al. (ICCV 2007): a line of sight is the segment from `center_world` to a point.

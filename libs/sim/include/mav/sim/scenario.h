@@ -14,6 +14,7 @@
 
 #include "mav/camera/stereo.h"
 #include "mav/common/status.h"
+#include "mav/dataset/occupancy_grid.h"
 #include "mav/dataset/types.h"
 
 namespace cv {
@@ -23,7 +24,6 @@ class Mat;
 namespace mav::sim {
 
 class World;
-class OccupancyGrid;
 
 struct ScenarioOptions {
   // One of PresetNames(): room-easy, room-medium, room-hard, plant.
@@ -70,8 +70,10 @@ class Scenario {
   // Ground-truth states at 200 Hz over the span (biases as used by ImuSamples()).
   std::vector<dataset::GroundTruthState> GroundTruth() const;
 
-  // Ground-truth occupancy of the world at `resolution` metres.
-  OccupancyGrid ComputeOccupancy(double resolution) const;
+  // Ground-truth occupancy of the world at `resolution` metres (sim::ComputeOccupancy), and the
+  // geometry it would have (to refuse a huge request before computing it).
+  dataset::OccupancyGrid ComputeOccupancy(double resolution) const;
+  dataset::GridGeometry OccupancyGeometry(double resolution) const;
 
   Scenario(Scenario&&) noexcept;
   Scenario& operator=(Scenario&&) noexcept;

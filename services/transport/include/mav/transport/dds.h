@@ -26,7 +26,11 @@
 //   Qos::HighRate()      IMU (200 Hz, tiny): RELIABLE, KEEP_LAST 400 (2 s of samples), VOLATILE,
 //                        so a consumer that wakes at frame rate still sees all samples in between.
 //   Qos::State()         ground truth, poses (200 Hz / 20 Hz): RELIABLE, KEEP_LAST 400, VOLATILE.
-//   Qos::Command()       actuator commands: BEST_EFFORT, KEEP_LAST 1 (only the latest matters).
+//   Qos::Command()       actuator commands: RELIABLE, KEEP_LAST 1, VOLATILE. Keep-last 1: only the
+//                        newest command matters, a newer one replaces an unsent older one (never
+//                        applied late). Reliable: a lock-stepped simulator waits for the command
+//                        of each step, and a lost sample would stall it for its whole timeout
+//                        (best effort loses samples on overrun, e.g. a full socket buffer).
 // Reliability is request/offered compatible: a RELIABLE writer serves both reliable and
 // best-effort readers; history depth is local to each side.
 

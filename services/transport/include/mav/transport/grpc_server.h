@@ -33,7 +33,7 @@ struct ServerOptions {
   // 0 = let the kernel choose a free port.
   int64_t port = 0;
   // How long Shutdown() lets in-flight RPCs finish before cancelling them.
-  int64_t shutdown_grace_ms = 2000;
+  int64_t shutdown_grace_ms = 5000;
 
   bool IsValid(std::string* why) const;
   // "127.0.0.1:50051" (IPv6 addresses are bracketed).
@@ -87,15 +87,11 @@ void BlockShutdownSignals();
 int WaitForShutdownSignal();
 
 // grpc.health.v1.Health/Check on `channel` for `service` ("" = the whole server).
-// Returns the status enum value (1 = SERVING, 2 = NOT_SERVING, 3 = SERVICE_UNKNOWN) or the
-// failed RPC status mapped to a Status naming `target`.
+// Returns the status enum value (1 = SERVING, 2 = NOT_SERVING, 3 = SERVICE_UNKNOWN), or
+// Unavailable "health check: <gRPC code>: <message>" when the call fails.
 enum class HealthStatus { kUnknown = 0, kServing = 1, kNotServing = 2, kServiceUnknown = 3 };
 Result<HealthStatus> CheckHealth(const std::shared_ptr<grpc::Channel>& channel,
                                  const std::string& service, std::chrono::milliseconds timeout);
 const char* HealthStatusName(HealthStatus status);
-
-// grpc::Status -> mav::Status and back, one to one (docs/contracts.md).
-grpc::Status ToGrpcStatus(const Status& status);
-Status FromGrpcStatus(const grpc::Status& status);
 
 }  // namespace mav::transport

@@ -1,0 +1,280 @@
+#include "services/control/control_core.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "mav/common/check.h"
+#include "mav/common/log.h"
+#include "mav/common/text.h"
+#include "mav/common/time.h"
+
+namespace mav::control_service {
+
+namespace {
+
+constexpr int64_t kRateWindowNs = 1'000'000'000;
+constexpr int64_t kRateStaleNs = 2'000'000'000;
+
+}  // namespace
+
+bool ControlConfig::IsValid(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (pose_frames.size() != autopilot.estimator.sources.size()) {
+    return fail("estimator.pose_sources: " + std::to_string(pose_frames.size()) +
+                " frame names for " + std::to_string(autopilot.estimator.sources.size()) +
+                " sources");
+  }
+  for (size_t i = 0; i < pose_frames.size(); ++i) {
+    const std::string field = "estimator.pose_sources[" + std::to_string(i) + "].frame_id";
+    if (pose_frames[i].empty()) return fail(field + ": empty");
+    if (pose_frames[i].size() > 32) return fail(field + ": longer than 32 characters (the IDL's)");
+    for (size_t j = 0; j < i; ++j) {
+      if (pose_frames[j] == pose_frames[i]) {
+        return fail(field + ": " + QuoteForError(pose_frames[i]) + " is pose_sources[" +
+                    std::to_string(j) + "]'s too");
+      }
+    }
+  }
+  return autopilot.IsValid(why);
+}
+
+void ControlCore::RateMeter::Add(int64_t now_ns) {
+  if (count == 0 && window_start_ns == 0) window_start_ns = now_ns;
+  ++count;
+  last_ns = now_ns;
+  if (now_ns - window_start_ns >= kRateWindowNs) {
+    rate_hz = static_cast<double>(count) / NsToSeconds(now_ns - window_start_ns);
+    window_start_ns = now_ns;
+    count = 0;
+  }
+}
+
+double ControlCore::RateMeter::Rate(int64_t now_ns) const {
+  if (last_ns == 0 || now_ns - last_ns > kRateStaleNs) return 0.0;
+  if (rate_hz > 0) return rate_hz;
+  // No whole window yet (a short lock-stepped flight): the samples so far.
+  return count >= 2 && last_ns > window_start_ns
+             ? static_cast<double>(count - 1) / NsToSeconds(last_ns - window_start_ns)
+             : 0.0;
+}
+
+ControlCore::ControlCore(CommandSink* sink) : sink_(sink) { MAV_CHECK(sink_ != nullptr); }
+
+Status ControlCore::Configure(const ControlConfig& config, const Termination& deadline) {
+  if (std::string why; !config.IsValid(&why)) return Status::InvalidArgument(why);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (autopilot_.has_value() && autopilot_->armed()) {
+      return Status::FailedPrecondition("armed: Disarm before Configure");
+    }
+  }
+  // The weights are computed here, outside the mutex: the steps go on meanwhile.
+  MAV_ASSIGN_OR_RETURN(control::Autopilot built, control::Autopilot::Create(config.autopilot));
+  MAV_RETURN_IF_ERROR(deadline.Check("Configure"));
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (autopilot_.has_value() && autopilot_->armed()) {
+    return Status::FailedPrecondition("armed: Disarm before Configure");
+  }
+  autopilot_.emplace(std::move(built));
+  config_ = config;
+  have_imu_ = false;
+  last_imu_t_ns_ = last_imu_wall_ns_ = 0;
+  last_command_ = control::RotorVector::Zero(config.autopilot.vehicle.rotor_count);
+  last_armed_ = false;
+  last_pose_delay_ns_ = 0;
+  pending_pose_t_ns_ = -1;
+  imu_rejected_ = imu_repeated_ = poses_rejected_ = commands_ = 0;
+  imu_rate_ = RateMeter();
+  pose_rate_ = RateMeter();
+  loop_ms_.Clear();
+  last_error_.clear();
+  MAV_LOG(kInfo) << "configured: " << control::ControllerTypeName(config.autopilot.controller)
+                 << " controller, " << config.autopilot.estimator.sources.size()
+                 << " pose source(s), IMU " << config.autopilot.estimator.imu_rate_hz << " Hz"
+                 << (config.lockstep ? ", lock-step" : "");
+  return Status::Ok();
+}
+
+bool ControlCore::configured() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return autopilot_.has_value();
+}
+
+Status ControlCore::CheckConfiguredLocked() const {
+  return autopilot_.has_value()
+             ? Status::Ok()
+             : Status::FailedPrecondition("not configured: call Configure first");
+}
+
+Status ControlCore::PublishLocked(int64_t t_ns, bool armed, const control::RotorVector& speeds) {
+  ActuatorOutput out;
+  out.sequence = sequence_++;
+  ++commands_;
+  out.t_ns = t_ns;
+  out.armed = armed;
+  out.rotor_speeds_radps = speeds;
+  const Status s = sink_->PublishCommand(out);
+  if (!s.ok()) last_error_ = "publishing a command: " + s.ToString();
+  return s;
+}
+
+void ControlCore::OnImu(const control::ImuMeasurement& imu) {
+  const int64_t start_ns = MonotonicNowNs();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!autopilot_.has_value()) return;
+  if (have_imu_ && imu.t_ns == last_imu_t_ns_) {
+    ++imu_repeated_;
+    (void)PublishLocked(imu.t_ns, last_armed_, last_command_);
+    return;
+  }
+  if (have_imu_ && imu.t_ns < last_imu_t_ns_) {
+    ++imu_rejected_;
+    last_error_ = "imu: t_ns " + std::to_string(imu.t_ns) + " is older than the previous " +
+                  std::to_string(last_imu_t_ns_);
+    return;
+  }
+  last_command_ = autopilot_->FeedImu(imu);
+  last_armed_ = autopilot_->armed();
+  if (pending_pose_t_ns_ >= 0) {
+    last_pose_delay_ns_ = imu.t_ns - pending_pose_t_ns_;
+    pending_pose_t_ns_ = -1;
+  }
+  have_imu_ = true;
+  last_imu_t_ns_ = imu.t_ns;
+  last_imu_wall_ns_ = start_ns;
+  imu_rate_.Add(start_ns);
+  (void)PublishLocked(imu.t_ns, last_armed_, last_command_);
+  loop_ms_.Add(MsSince(start_ns));
+}
+
+void ControlCore::OnPose(const std::string& frame_id, int64_t t_ns,
+                         const geometry::SE3& T_world_sensor) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!autopilot_.has_value()) return;
+  const std::vector<std::string>& frames = config_->pose_frames;
+  const auto it = std::find(frames.begin(), frames.end(), frame_id);
+  if (it == frames.end()) {
+    ++poses_rejected_;
+    last_error_ = "pose: unknown child_frame_id " + QuoteForError(frame_id) +
+                  " (configured: " + frames[0] + (frames.size() > 1 ? ", ..." : "") + ")";
+    return;
+  }
+  control::PoseMeasurement pose;
+  pose.t_ns = t_ns;
+  pose.source = static_cast<int>(it - frames.begin());
+  pose.T_world_sensor = T_world_sensor;
+  // Refusals (too old, before the first IMU) are counted by the autopilot (poses_dropped).
+  if (autopilot_->FeedPose(pose).ok()) pending_pose_t_ns_ = t_ns;
+  pose_rate_.Add(MonotonicNowNs());
+}
+
+void ControlCore::RejectImu(const std::string& why) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++imu_rejected_;
+  last_error_ = "imu: " + why;
+}
+
+void ControlCore::RejectPose(const std::string& why) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++poses_rejected_;
+  last_error_ = "pose: " + why;
+}
+
+void ControlCore::OnPoll(int64_t now_wall_ns) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!autopilot_.has_value() || config_->lockstep || !have_imu_) return;
+  // The IMU's time line advanced by the wall time since the last sample.
+  const int64_t now_imu_ns = last_imu_t_ns_ + (now_wall_ns - last_imu_wall_ns_);
+  control::RotorVector command;
+  if (!autopilot_->CheckImuTimeout(now_imu_ns, &command)) return;
+  last_error_ = "no IMU sample for " + std::to_string((now_wall_ns - last_imu_wall_ns_) / 1000000) +
+                " ms: " + (autopilot_->armed() ? "holding the last command" : "disarmed");
+  (void)PublishLocked(now_imu_ns, autopilot_->armed(), command);
+}
+
+Status ControlCore::Arm() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MAV_RETURN_IF_ERROR(CheckConfiguredLocked());
+  return autopilot_->Arm();
+}
+
+void ControlCore::Disarm() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (autopilot_.has_value()) autopilot_->Disarm();
+}
+
+Status ControlCore::Hover(const Eigen::Vector3d& position, double yaw_rad,
+                          const std::optional<control::GoToLimits>& limits, bool immediate) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MAV_RETURN_IF_ERROR(CheckConfiguredLocked());
+  if (immediate) return autopilot_->HoldPosition(position, yaw_rad);
+  return autopilot_->Hover(position, yaw_rad, limits.has_value() ? &*limits : nullptr);
+}
+
+Status ControlCore::SetTrajectory(const geometry::PolynomialTrajectory& trajectory,
+                                  int64_t start_t_ns, const Eigen::Vector3d& offset,
+                                  bool allow_jump) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MAV_RETURN_IF_ERROR(CheckConfiguredLocked());
+  return autopilot_->SetTrajectory(trajectory, start_t_ns, offset, allow_jump);
+}
+
+Status ControlCore::SetPaperGains(const control::PaperControllerGains& gains) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MAV_RETURN_IF_ERROR(CheckConfiguredLocked());
+  if (autopilot_->options().controller != control::ControllerType::kPaper) {
+    return Status::FailedPrecondition(
+        "gains: the configured controller is lee: give lee_gains (or Configure the paper one)");
+  }
+  MAV_RETURN_IF_ERROR(autopilot_->SetPaperGains(gains));
+  config_->autopilot.paper_gains = gains;
+  return Status::Ok();
+}
+
+Status ControlCore::SetLeeGains(const control::LeeControllerGains& gains) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MAV_RETURN_IF_ERROR(CheckConfiguredLocked());
+  if (autopilot_->options().controller != control::ControllerType::kLee) {
+    return Status::FailedPrecondition(
+        "lee_gains: the configured controller is paper: give gains (or Configure lee)");
+  }
+  MAV_RETURN_IF_ERROR(autopilot_->SetLeeGains(gains));
+  config_->autopilot.lee_gains = gains;
+  return Status::Ok();
+}
+
+ControlCoreStatus ControlCore::GetStatus() const {
+  const int64_t now_ns = MonotonicNowNs();
+  ControlCoreStatus s;
+  s.actuator_subscribers = sink_->ActuatorSubscribers();
+  std::lock_guard<std::mutex> lock(mutex_);
+  s.configured = autopilot_.has_value();
+  s.config = config_;
+  if (autopilot_.has_value()) s.autopilot = autopilot_->status();
+  s.commands_published = commands_;
+  s.imu_rejected = imu_rejected_;
+  s.imu_repeated = imu_repeated_;
+  s.poses_rejected = poses_rejected_;
+  s.imu_rate_hz = imu_rate_.Rate(now_ns);
+  s.pose_rate_hz = pose_rate_.Rate(now_ns);
+  s.loop_ms = loop_ms_.Summary();
+  s.last_error = last_error_;
+  return s;
+}
+
+ControlCoreState ControlCore::GetState() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ControlCoreState s;
+  s.configured = autopilot_.has_value();
+  if (!autopilot_.has_value()) return s;
+  s.armed = autopilot_->armed();
+  s.autopilot = autopilot_->state();
+  s.last_pose_t_ns = autopilot_->estimator().counters().last_pose_t_ns;
+  s.last_pose_delay_ms = static_cast<double>(last_pose_delay_ns_) * 1e-6;
+  return s;
+}
+
+}  // namespace mav::control_service

@@ -1,0 +1,176 @@
+#pragma once
+// The control service's core, free of gRPC, protobuf and DDS: a ControlCore holds one
+// control::Autopilot (libs/control/autopilot.h: estimator + paper/Lee controller + allocation +
+// modes and failsafes, the very code mav-eval flies) and answers every IMU sample with exactly
+// one actuator command stamped with the sample's t_ns.
+//
+//   DDS read loop thread:  poses (drained first) --OnPose--> Autopilot::FeedPose
+//                          IMU (wakes the loop)  --OnImu---> Autopilot::FeedImu --> CommandSink
+//                          every poll period     --OnPoll--> Autopilot::CheckImuTimeout
+//   RPC threads:           Arm / Disarm / Hover / SetTrajectory / SetGains / Configure / Get*
+//
+// Why the autopilot is driven from the DDS read loop's thread under a mutex rather than owned by
+// a WorkQueue worker (mav/common/work_queue.h): the IMU-rate step must be fast and in order. The
+// read loop is one thread that takes the samples in arrival order (poses before the IMU sample
+// that wakes it, transport::DdsReadLoop), so the steps run in order without a queue; a WorkQueue
+// task per 10 ms sample would add an allocation, a future and a thread hand-off to every step,
+// and in lock-step that latency is on the critical path of every simulated step (the simulator
+// waits for each command). The RPCs must not race the step: they take the same mutex, and every
+// command they carry is microseconds of work (a mode switch, a GoTo spline of 8 segments, a
+// gains swap), so a command lands between two steps and never inside one, and a step waits at
+// most that long. The one slow command, Configure (the a-priori EKF weights take a few ms), builds
+// the new autopilot outside the mutex and swaps it in. Nothing here blocks on I/O while holding
+// the mutex except the command write itself (a DDS write, ~10 us, kept inside so that commands
+// leave in step order).
+//
+// Failsafes are the autopilot's: no pose for pose_timeout_s (IMU time line) -> level on the IMU
+// and descend; no IMU for imu_timeout_s (wall clock, OnPoll) -> the ImuLossPolicy. In lock-step
+// (ControlConfig::lockstep) the wall-clock watchdog is off: a paused simulation is not a lost
+// IMU, and the simulator's own command timeout notices a controller that stopped answering.
+//
+// Memory: fixed (the autopilot's ring buffers and 1000-sample statistics windows).
+// Thread-safety: every public method may be called from any thread.
+
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "mav/common/stats.h"
+#include "mav/common/status.h"
+#include "mav/common/termination.h"
+#include "mav/control/autopilot.h"
+#include "mav/geometry/polynomial_trajectory.h"
+#include "mav/geometry/se3.h"
+
+namespace mav::control_service {
+
+struct ControlConfig {
+  control::AutopilotOptions autopilot;
+  // The child_frame_id of each pose source's poses (parallel to autopilot.estimator.sources):
+  // non-empty and distinct; "pose_sensor<i>" for the simulator's flight mode.
+  std::vector<std::string> pose_frames = {"pose_sensor0"};
+  // The IMU's clock is a lock-stepped simulator's: no wall-clock IMU watchdog.
+  bool lockstep = false;
+
+  // Names the field as control.proto spells it where the service's checks do (pose_frames).
+  bool IsValid(std::string* why) const;
+};
+
+// One actuator command for the data plane.
+struct ActuatorOutput {
+  uint64_t sequence = 0;
+  int64_t t_ns = 0;  // the IMU sample's stamp it answers
+  bool armed = false;
+  control::RotorVector rotor_speeds_radps;
+};
+
+// Where commands go (DDS in production, dds_io.h; a recorder in tests). Called from the thread
+// that feeds the IMU, with the core's mutex held: keep it short.
+class CommandSink {
+ public:
+  virtual ~CommandSink() = default;
+  virtual Status PublishCommand(const ActuatorOutput& command) = 0;
+  virtual uint32_t ActuatorSubscribers() { return 0; }
+};
+
+struct ControlCoreStatus {
+  bool configured = false;
+  std::optional<ControlConfig> config;  // the effective one (gains as last set)
+  control::AutopilotStatus autopilot;
+  uint64_t commands_published = 0;  // since Configure
+  uint64_t imu_rejected = 0;        // not finite, or older than the previous sample
+  uint64_t imu_repeated = 0;        // a repeated stamp, answered again with its command
+  uint64_t poses_rejected = 0;
+  double imu_rate_hz = 0;  // per wall second (lock-step: the stepping speed)
+  double pose_rate_hz = 0;
+  RuntimeStats loop_ms;  // OnImu: sample in -> command written
+  std::string last_error;
+  uint32_t actuator_subscribers = 0;
+};
+
+struct ControlCoreState {
+  bool configured = false;
+  bool armed = false;
+  control::AutopilotState autopilot;
+  int64_t last_pose_t_ns = 0;
+  // The IMU time of the first sample after its arrival minus its stamp.
+  double last_pose_delay_ms = 0;
+};
+
+class ControlCore {
+ public:
+  // `sink` (not owned) must outlive the core.
+  explicit ControlCore(CommandSink* sink);
+  ControlCore(const ControlCore&) = delete;
+  ControlCore& operator=(const ControlCore&) = delete;
+
+  // Builds the autopilot (InvalidArgument naming the field) and swaps it in: estimate, counters
+  // and reference restart. FailedPrecondition while armed; DEADLINE_EXCEEDED (nothing changed)
+  // when `deadline` stops before the swap.
+  Status Configure(const ControlConfig& config, const Termination& deadline = {});
+  bool configured() const;
+
+  // ---- Data plane (the DDS read loop's thread) ----
+  // Feeds one IMU sample and publishes its command. A repeated stamp is answered with the
+  // command it got before (a lock-stepped simulator resuming after a timeout republishes its
+  // step); an older one is rejected (counted). Ignored while unconfigured.
+  void OnImu(const control::ImuMeasurement& imu);
+  // A pose T_world_sensor of the source whose frame is `frame_id`; an unknown frame is rejected
+  // (counted, last_error).
+  void OnPose(const std::string& frame_id, int64_t t_ns, const geometry::SE3& T_world_sensor);
+  // A sample the transport could not use (malformed); counted with its reason.
+  void RejectImu(const std::string& why);
+  void RejectPose(const std::string& why);
+  // The IMU watchdog on the service's clock (MonotonicNowNs); off in lock-step.
+  void OnPoll(int64_t now_wall_ns);
+
+  // ---- Commands (RPC threads); FailedPrecondition when unconfigured ----
+  Status Arm();
+  void Disarm();
+  // immediate: hold (position, yaw) at once; else a smooth move (limits or the configured ones).
+  Status Hover(const Eigen::Vector3d& position, double yaw_rad,
+               const std::optional<control::GoToLimits>& limits, bool immediate);
+  Status SetTrajectory(const geometry::PolynomialTrajectory& trajectory, int64_t start_t_ns,
+                       const Eigen::Vector3d& offset, bool allow_jump);
+  // FailedPrecondition when the configured controller is the other one.
+  Status SetPaperGains(const control::PaperControllerGains& gains);
+  Status SetLeeGains(const control::LeeControllerGains& gains);
+
+  ControlCoreStatus GetStatus() const;
+  ControlCoreState GetState() const;
+
+ private:
+  // Samples per wall second over ~1 s windows.
+  struct RateMeter {
+    int64_t window_start_ns = 0, last_ns = 0;
+    uint64_t count = 0;
+    double rate_hz = 0;
+    void Add(int64_t now_ns);
+    double Rate(int64_t now_ns) const;
+  };
+  Status PublishLocked(int64_t t_ns, bool armed, const control::RotorVector& speeds);
+  Status CheckConfiguredLocked() const;
+
+  CommandSink* sink_;
+  mutable std::mutex mutex_;
+  // Guarded by mutex_.
+  std::optional<control::Autopilot> autopilot_;
+  std::optional<ControlConfig> config_;
+  uint64_t sequence_ = 0;  // DDS sequence numbers: since the start of the process
+  uint64_t commands_ = 0;  // since Configure
+  bool have_imu_ = false;
+  int64_t last_imu_t_ns_ = 0;
+  int64_t last_imu_wall_ns_ = 0;
+  control::RotorVector last_command_;
+  bool last_armed_ = false;
+  int64_t last_pose_delay_ns_ = 0;
+  int64_t pending_pose_t_ns_ = -1;  // a merged pose whose delay the next IMU sample measures
+  uint64_t imu_rejected_ = 0, imu_repeated_ = 0, poses_rejected_ = 0;
+  RateMeter imu_rate_, pose_rate_;
+  RuntimeWindow loop_ms_{1000};
+  std::string last_error_;
+};
+
+}  // namespace mav::control_service

@@ -1,0 +1,63 @@
+#pragma once
+// mav.v1 control messages <-> the control service's domain types (control_core.h, libs/control).
+// Validation of request fields happens here, with messages that start with the field path as the
+// request spells it ("estimator.pose_sources[1].rate_hz: ...", "trajectory.segments[2].x: ...").
+// Option fields: 0 (or unset) = the library's default, as control.proto documents.
+
+#include <string>
+
+#include "mav/v1/common.pb.h"
+#include "mav/v1/control.pb.h"
+#include "mav/v1/planning.pb.h"
+#include "services/common/proto_codec.h"
+
+#include "mav/common/status.h"
+#include "mav/control/autopilot.h"
+#include "mav/dataset/flight_task.h"
+#include "mav/geometry/polynomial_trajectory.h"
+#include "services/control/control_core.h"
+
+namespace mav::control_service {
+
+using service_common::PoseFromProto;
+using service_common::ToProto;  // geometry::SE3 -> v1::Pose, RuntimeStats
+
+// The whole configuration; InvalidArgument naming the field (the library's checks included, with
+// its field names translated to the proto's).
+Result<ControlConfig> ConfigFromProto(const v1::ControlConfigureRequest& request);
+// The effective configuration (every default filled in).
+void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out);
+
+// What the contest told the teams about a flight task (eval::AutopilotOptionsForTask: the
+// controllers' Firefly, the sensors' nominal rates, noise and mountings), with the simulator's
+// pose frames "pose_sensor<i>": the configuration mav-eval flies the task with.
+ControlConfig ConfigForFlightTask(const dataset::FlightTask& task,
+                                  control::ControllerType controller, bool lockstep);
+// A built-in task name (t3_1 ... t4_3) or a task file (*.yaml, over t3_1 unless it names its
+// base). NotFound / InvalidArgument naming the task or the file's key.
+Result<dataset::FlightTask> FlightTaskFromSpec(const std::string& name_or_file,
+                                               const std::string& plant_map_path);
+
+// `field` prefixes the messages ("gains", "lee_gains", "limits"); 0 components = defaults.
+Result<control::PaperControllerGains> PaperGainsFromProto(const v1::ControllerGains& gains,
+                                                          const std::string& field);
+Result<control::LeeControllerGains> LeeGainsFromProto(const v1::LeeGains& gains,
+                                                      const std::string& field);
+Result<control::GoToLimits> LimitsFromProto(const v1::GoToLimits& limits, const std::string& field);
+// A finite vector; InvalidArgument "<field>.x: not finite".
+Result<Eigen::Vector3d> VectorFromProto(const v1::Vector3& v, const std::string& field);
+
+// At most this many segments per trajectory (a 4 MiB message holds ~20000).
+inline constexpr int kMaxTrajectorySegments = 10000;
+// InvalidArgument naming "<field>.segments[i].duration_s" (<= 0 or not finite), "<field>.
+// segments[i].x" (not 6 coefficients, or not finite), "<field>.segments" (none, too many),
+// "<field>.yaw_policy", "<field>.duration_s" (not the sum of the segments').
+Result<geometry::PolynomialTrajectory> TrajectoryFromProto(const v1::PolynomialTrajectory& t,
+                                                           const std::string& field);
+void ToProto(const geometry::PolynomialTrajectory& trajectory, v1::PolynomialTrajectory* out);
+
+v1::ControlMode ToProto(control::FlightMode mode);
+void ToProto(const ControlCoreStatus& status, bool dds_input, v1::ControlStatus* out);
+void ToProto(const ControlCoreState& state, v1::ControlState* out);
+
+}  // namespace mav::control_service

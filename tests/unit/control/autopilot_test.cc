@@ -1,0 +1,164 @@
+// The autopilot's mode logic, closed-loop with the simulated vehicle (libs/sim).
+
+#include "mav/control/autopilot.h"
+
+#include <gtest/gtest.h>
+
+#include "mav/common/time.h"
+#include "mav/eval/flight_mission.h"
+#include "mav/sim/flight_simulation.h"
+#include "mav/sim/flight_task.h"
+
+namespace mav::control {
+namespace {
+
+// Lock-steps a simulation and an autopilot; `each_step` may command the autopilot.
+struct Loop {
+  sim::FlightSimulation sim;
+  Autopilot ap;
+  bool feed_poses = true;
+  bool feed_imu = true;
+
+  static Loop Make(const std::string& task, uint64_t seed = 11) {
+    const dataset::FlightTask t = *sim::BuiltinFlightTask(task);
+    return Loop{*sim::FlightSimulation::Create(t, seed),
+                *Autopilot::Create(eval::AutopilotOptionsForTask(t, ControllerType::kPaper))};
+  }
+  // Runs until t_s; returns the last ground truth.
+  const sim::FlightStep& RunUntil(double t_s) {
+    const sim::FlightStep* out = &sim.Initial();
+    static thread_local sim::RotorVector cmd;
+    while (NsToSeconds(sim.t_ns()) < t_s - 1e-9) {
+      out = &Next();
+    }
+    return *out;
+  }
+  const sim::FlightStep& Next() {
+    const sim::FlightStep& out = last_ ? *last_ : sim.Initial();
+    if (feed_poses) {
+      for (const sim::PoseSample& p : out.poses) {
+        (void)ap.FeedPose(PoseMeasurement{p.t_ns, p.sensor, p.T_world_sensor});
+      }
+    }
+    RotorVector command = RotorVector::Zero(6);
+    if (feed_imu) {
+      command = ap.FeedImu(ImuMeasurement{out.imu.t_ns, out.imu.gyro, out.imu.accel});
+    } else {
+      ap.CheckImuTimeout(out.t_ns, &command);
+      if (!ap.status().armed) command = RotorVector::Zero(6);
+    }
+    sim::RotorVector c(6);
+    for (int i = 0; i < 6; ++i) c[i] = command[i];
+    last_ = &sim.Step(c);
+    return *last_;
+  }
+  const sim::FlightStep* last_ = nullptr;
+};
+
+TEST(AutopilotTest, ArmsOnlyOnceTheEstimatorConverged) {
+  Loop loop = Loop::Make("t3_1");
+  EXPECT_EQ(loop.ap.Arm().code(), StatusCode::kFailedPrecondition);  // nothing yet
+  EXPECT_EQ(loop.ap.Hover(Eigen::Vector3d(0, 0, 1), 0).code(), StatusCode::kFailedPrecondition);
+  loop.RunUntil(1.0);
+  EXPECT_FALSE(loop.ap.estimator().converged());
+  EXPECT_EQ(loop.ap.Arm().code(), StatusCode::kFailedPrecondition);
+  loop.RunUntil(6.0);
+  ASSERT_TRUE(loop.ap.estimator().converged());
+  ASSERT_TRUE(loop.ap.Arm().ok());
+  EXPECT_EQ(loop.ap.Arm().code(), StatusCode::kFailedPrecondition);  // already armed
+  EXPECT_EQ(loop.ap.status().mode, FlightMode::kHover);
+  // Take off and hover at 1 m.
+  ASSERT_TRUE(loop.ap.Hover(Eigen::Vector3d(0, 0, 1), 0).ok());
+  const sim::FlightStep& out = loop.RunUntil(14.0);
+  EXPECT_LT((out.truth.p_world - Eigen::Vector3d(0, 0, 1)).norm(), 0.08);
+  EXPECT_EQ(loop.ap.status().mode, FlightMode::kHover);
+  EXPECT_GT(loop.ap.status().commands, 500u);
+  EXPECT_LT(loop.ap.status().position_rms_m, 0.3);
+  EXPECT_EQ(loop.ap.Hover(Eigen::Vector3d(0, NAN, 1), 0).code(), StatusCode::kInvalidArgument);
+}
+
+TEST(AutopilotTest, TrajectoryThenHoverAtItsEnd) {
+  Loop loop = Loop::Make("t3_1");
+  loop.RunUntil(6.0);
+  ASSERT_TRUE(loop.ap.Arm().ok());
+  ASSERT_TRUE(loop.ap.Hover(Eigen::Vector3d(0, 0, 1), 0).ok());
+  loop.RunUntil(10.0);
+  geometry::TrajectoryPoint from = loop.ap.state().reference;
+  GoToLimits limits;
+  const geometry::PolynomialTrajectory t =
+      *MakeGoToTrajectory(from, Eigen::Vector3d(2, 1, 1.5), 0.5, limits);
+  EXPECT_EQ(loop.ap.SetTrajectory(t, 0, Eigen::Vector3d(5, 0, 0), false).code(),
+            StatusCode::kInvalidArgument);  // starts 5 m away
+  ASSERT_TRUE(loop.ap.SetTrajectory(t, 0, Eigen::Vector3d::Zero(), false).ok());
+  EXPECT_EQ(loop.ap.status().mode, FlightMode::kTrajectory);
+  const sim::FlightStep& out = loop.RunUntil(10.0 + t.duration_s() + 4.0);
+  EXPECT_EQ(loop.ap.status().mode, FlightMode::kHover);
+  EXPECT_LT((out.truth.p_world - Eigen::Vector3d(2, 1, 1.5)).norm(), 0.08);
+  const Eigen::Matrix3d R = out.truth.q_world_body.toRotationMatrix();
+  EXPECT_NEAR(std::atan2(R(1, 0), R(0, 0)), 0.5, 0.05);
+}
+
+TEST(AutopilotTest, SetGainsWhileFlyingKeepsTheIntegral) {
+  Loop loop = Loop::Make("t3_2");  // wind from 40 s: the integral and observer carry it
+  loop.RunUntil(6.0);
+  ASSERT_TRUE(loop.ap.Arm().ok());
+  ASSERT_TRUE(loop.ap.Hover(Eigen::Vector3d(0, 0, 1), 0).ok());
+  loop.RunUntil(50.0);
+  const Eigen::Vector3d before = loop.ap.state().integral;
+  PaperControllerGains g;
+  g.attitude_omega_radps = 10;
+  ASSERT_TRUE(loop.ap.SetPaperGains(g).ok());
+  EXPECT_EQ(loop.ap.state().integral, before);
+  g.attitude_zeta = 5;
+  const Status bad = loop.ap.SetPaperGains(g);
+  EXPECT_EQ(bad.code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(bad.message().find("attitude_zeta"), std::string::npos);
+  const sim::FlightStep& out = loop.RunUntil(60.0);
+  EXPECT_LT((out.truth.p_world - Eigen::Vector3d(0, 0, 1)).norm(), 0.1);
+}
+
+TEST(AutopilotTest, PoseLossMeansFailsafeDescentAndImuLossMeansMotorsOff) {
+  Loop loop = Loop::Make("t3_1");
+  loop.RunUntil(6.0);
+  ASSERT_TRUE(loop.ap.Arm().ok());
+  ASSERT_TRUE(loop.ap.Hover(Eigen::Vector3d(0, 0, 2), 0).ok());
+  loop.RunUntil(12.0);
+  loop.feed_poses = false;
+  loop.RunUntil(12.9);
+  EXPECT_EQ(loop.ap.status().mode, FlightMode::kHover);  // 0.9 s without a pose: still fine
+  const sim::FlightStep& at = loop.RunUntil(13.2);
+  EXPECT_EQ(loop.ap.status().mode, FlightMode::kFailsafe);
+  EXPECT_EQ(loop.ap.status().pose_timeouts, 1u);
+  const double z0 = at.truth.p_world.z();
+  const sim::FlightStep& later = loop.RunUntil(16.2);
+  // Descending at about 0.3 m/s, level.
+  EXPECT_NEAR(z0 - later.truth.p_world.z(), 0.9, 0.3);
+  EXPECT_LT(later.truth.omega_body.norm(), 0.2);
+  // Hover is refused until poses come back.
+  EXPECT_EQ(loop.ap.Hover(Eigen::Vector3d(0, 0, 2), 0).code(), StatusCode::kFailedPrecondition);
+  loop.feed_poses = true;
+  loop.RunUntil(16.5);
+  EXPECT_TRUE(loop.ap.Hover(Eigen::Vector3d(0, 0, 2), 0).ok());
+  loop.RunUntil(17.0);
+  // IMU silence for 0.1 s: the default policy stops the motors.
+  loop.feed_imu = false;
+  loop.RunUntil(17.05);
+  EXPECT_TRUE(loop.ap.status().armed);
+  loop.RunUntil(17.15);
+  EXPECT_FALSE(loop.ap.status().armed);
+  EXPECT_EQ(loop.ap.status().imu_timeouts, 1u);
+}
+
+TEST(AutopilotTest, OptionsNameTheBadField) {
+  AutopilotOptions o;
+  o.estimator.sources[0].rate_hz = -1;
+  const auto r = Autopilot::Create(o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("estimator.sources[0].rate_hz"), std::string::npos);
+  o = AutopilotOptions();
+  o.pose_timeout_s = 0;
+  EXPECT_NE(Autopilot::Create(o).status().message().find("pose_timeout_s"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mav::control

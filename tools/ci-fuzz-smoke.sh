@@ -55,7 +55,7 @@ if [[ $do_build -eq 1 ]]; then
   CC=clang CXX=clang++ cmake -S "$repo" -B "$build_dir" -DMAV_FUZZ=ON \
     -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$flags" \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="$flags" -DMAV_BUILD_TESTS=OFF \
-    -DMAV_BUILD_SERVICES=OFF -DMAV_BUILD_BENCHMARKS=OFF >"$build_dir/configure.log" 2>&1 ||
+    -DMAV_BUILD_SERVICES=ON -DMAV_BUILD_BENCHMARKS=OFF >"$build_dir/configure.log" 2>&1 ||
     { cat "$build_dir/configure.log" >&2; exit 1; }
   log "building ${#targets[@]} fuzz targets with $jobs jobs in $build_dir"
   cmake --build "$build_dir" -j "$jobs" --target "${targets[@]}"

@@ -6,12 +6,12 @@
 #include <bit>
 #include <cmath>
 #include <limits>
-#include <sstream>
 
 #include "distance_field.h"
 #include "mav/common/file.h"
 #include "mav/common/hash.h"
 #include "mav/common/time.h"
+#include "mav/dataset/octomap_bt.h"
 
 namespace mav::planning {
 namespace {
@@ -251,13 +251,17 @@ Result<std::shared_ptr<const PlanningMap>> PlanningMap::LoadBytes(
   MAV_RETURN_IF_ERROR(stop.Check("map load"));
   const int64_t start_ns = MonotonicNowNs();
 
-  octomap::OcTree tree(0.1);
-  {
-    std::istringstream in{std::string(bt_bytes)};
-    if (bt_bytes.empty() || !tree.readBinary(in)) {
-      return Status::DataLoss(source + ": not a readable OctoMap binary tree (.bt)");
-    }
+  // OcTree::readBinary trusts its input (a deep or truncated node stream overflows the stack or
+  // allocates gigabytes: mav/dataset/octomap_bt.h); the bytes are validated first. A malformed
+  // file is DATA_LOSS, as every corrupt file of ours.
+  Result<std::unique_ptr<octomap::OcTree>> read = dataset::ReadOctomapBinary(bt_bytes, source);
+  if (!read.ok()) {
+    return read.status().code() == StatusCode::kInvalidArgument
+               ? Status::DataLoss(read.status().message() +
+                                  " (not a readable OctoMap binary tree, .bt)")
+               : read.status();
   }
+  const octomap::OcTree& tree = **read;
   if (tree.getNumLeafNodes() == 0) return Status::DataLoss(source + ": the OctoMap has no leaves");
   if (progress) progress("octomap", 1.0);
 

@@ -7,6 +7,7 @@
 #include <octomap/OcTree.h>
 
 #include "mav/common/file.h"
+#include "mav/dataset/octomap_bt.h"
 #include "mav/sim/world.h"
 
 namespace mav::sim {
@@ -71,10 +72,17 @@ std::unique_ptr<CollisionWorld> MakePrimitiveCollisionWorld(std::shared_ptr<cons
 
 Result<std::unique_ptr<CollisionWorld>> LoadOctomapCollisionWorld(const std::string& path) {
   if (!PathExists(path)) return Status::NotFound(path + ": no such OctoMap file");
-  auto tree = std::make_unique<octomap::OcTree>(0.1);
-  if (!tree->readBinary(path) || tree->size() == 0) {
-    return Status::DataLoss(path + ": not a readable OctoMap binary (.bt) file");
+  // Validated before OctoMap reads it (mav/dataset/octomap_bt.h).
+  MAV_ASSIGN_OR_RETURN(const std::string bytes, ReadFileToString(path));
+  Result<std::unique_ptr<octomap::OcTree>> read = dataset::ReadOctomapBinary(bytes, path);
+  if (!read.ok()) {
+    return read.status().code() == StatusCode::kInvalidArgument
+               ? Status::DataLoss(read.status().message() +
+                                  " (not a readable OctoMap binary file, .bt)")
+               : read.status();
   }
+  std::unique_ptr<octomap::OcTree> tree = std::move(*read);
+  if (tree->size() == 0) return Status::DataLoss(path + ": the OctoMap has no nodes");
   std::unique_ptr<CollisionWorld> world = std::make_unique<OctomapCollisionWorld>(
       std::move(tree), std::filesystem::path(path).filename().string());
   return world;

@@ -2,8 +2,10 @@
 # Idempotent set-up: installs the Debian packages listed in deploy/packages.txt that are missing,
 # then configures and builds the Release tree in build/ (incrementally; ccache makes rebuilds cheap).
 #
-#   deploy/setup.sh [--no-build] [--build-dir DIR] [--jobs N]
+#   deploy/setup.sh [--no-build] [--build-dir DIR] [--jobs N] [--packages FILE]
 #
+# --packages FILE: install the packages of FILE (same format) instead, e.g. the quality gates'
+# clang toolchain (deploy/packages-quality.txt, used by tools/ci-*.sh).
 # Safe to run any number of times: apt is touched only when a package is missing.
 set -euo pipefail
 
@@ -11,20 +13,23 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build_dir="$repo/build"
 jobs="$(nproc 2>/dev/null || echo 2)"
 do_build=1
+package_file="$repo/deploy/packages.txt"
 
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --no-build) do_build=0; shift ;;
     --build-dir) build_dir="$2"; shift 2 ;;
     --jobs) jobs="$2"; shift 2 ;;
-    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    --packages) package_file="$2"; shift 2 ;;
+    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
     *) echo "setup.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
 
 log() { printf '\033[1m[setup]\033[0m %s\n' "$*" >&2; }
 
-mapfile -t packages < <(grep -vE '^\s*(#|$)' "$repo/deploy/packages.txt")
+[[ -f "$package_file" ]] || { echo "setup.sh: $package_file: no such package list" >&2; exit 2; }
+mapfile -t packages < <(grep -vE '^\s*(#|$)' "$package_file")
 missing=()
 for p in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then

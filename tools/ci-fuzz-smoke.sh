@@ -49,7 +49,11 @@ if [[ ${#targets[@]} -eq 0 ]]; then
 fi
 
 if [[ $do_build -eq 1 ]]; then
-  command -v clang++ >/dev/null || { log "clang++ not found (apt-get install clang libclang-rt-14-dev)"; exit 2; }
+  # The clang toolchain (and the project's own packages) if missing: a clean CI machine has
+  # only what the project's files install.
+  "$repo/deploy/setup.sh" --no-build
+  "$repo/deploy/setup.sh" --packages "$repo/deploy/packages-quality.txt" --no-build
+  command -v clang++ >/dev/null || { log "clang++ not found (deploy/packages-quality.txt)"; exit 2; }
   mkdir -p "$build_dir"
   flags="-O1 -gline-tables-only -DNDEBUG"
   CC=clang CXX=clang++ cmake -S "$repo" -B "$build_dir" -DMAV_FUZZ=ON \

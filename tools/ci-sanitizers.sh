@@ -34,7 +34,11 @@ log() { printf '\033[1m[sanitizers]\033[0m %s\n' "$*" >&2; }
 start=$(date +%s)
 
 if [[ $do_build -eq 1 ]]; then
-  command -v clang++ >/dev/null || { log "clang++ not found (apt-get install clang libclang-rt-14-dev)"; exit 2; }
+  # The clang toolchain (and the project's own packages) if missing: a clean CI machine has
+  # only what the project's files install.
+  "$repo/deploy/setup.sh" --no-build
+  "$repo/deploy/setup.sh" --packages "$repo/deploy/packages-quality.txt" --no-build
+  command -v clang++ >/dev/null || { log "clang++ not found (deploy/packages-quality.txt)"; exit 2; }
   # clang: UBSan reports go to files like ASan's (cmake/MavSanitize.cmake says why). -O1: most of
   # -O2's speed for the tests at a fraction of the compile time; line tables are enough for
   # symbolised stacks; NDEBUG as in the Release build that ./test.sh runs.

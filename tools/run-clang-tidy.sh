@@ -35,6 +35,8 @@ while [[ $# -gt 0 ]]; do
 done
 [[ ${#explicit[@]} -gt 0 ]] && scope=("${explicit[@]}")
 
+command -v clang-tidy >/dev/null ||
+  "$repo/deploy/setup.sh" --packages "$repo/deploy/packages-quality.txt" --no-build
 tidy="$(command -v clang-tidy-14 || command -v clang-tidy || true)"
 [[ -n "$tidy" ]] || { echo "run-clang-tidy.sh: clang-tidy not found (apt-get install clang-tidy)" >&2; exit 2; }
 db="$build_dir/compile_commands.json"

@@ -261,7 +261,7 @@ Result<std::shared_ptr<const PlanningMap>> PlanningMap::LoadBytes(
                                   " (not a readable OctoMap binary tree, .bt)")
                : read.status();
   }
-  const octomap::OcTree& tree = **read;
+  octomap::OcTree& tree = **read;
   if (tree.getNumLeafNodes() == 0) return Status::DataLoss(source + ": the OctoMap has no leaves");
   if (progress) progress("octomap", 1.0);
 

@@ -73,6 +73,7 @@ Result<std::vector<Query>> ReadQueries(const std::string& path) {
   MAV_ASSIGN_OR_RETURN(const std::vector<dataset::PlanningQuery> read,
                        dataset::ReadPlanningQueries(path));
   std::vector<Query> out;
+  out.reserve(read.size());
   for (const dataset::PlanningQuery& q : read) out.push_back({q.where, q.points, 0});
   return out;
 }

@@ -292,7 +292,7 @@ int LocalizationCommand(const std::vector<std::string>& args) {
     std::cout << kLocUsage;
     return args.empty() ? 2 : 0;
   }
-  const std::string sub = args[0];
+  const std::string& sub = args[0];
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   if (sub == "configure") return Configure(rest);
   if (sub == "reset") return Reset(rest);

@@ -15,6 +15,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -139,7 +140,7 @@ int SimCommand(const std::vector<std::string>& args) {
                  "occupancy|flight\n";
     return 2;
   }
-  const std::string sub = args[0];
+  const std::string& sub = args[0];
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   if (sub == "flight") return mav::mavctl::FlightCommand(rest);
   Connection connection;
@@ -360,9 +361,7 @@ int ListenCommand(const std::vector<std::string>& args) {
   return mav::mavctl::ReportPassed(options, *report) ? 0 : 1;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int Run(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h") {
     std::cout << kUsage;
     return argc < 2 ? 2 : 0;
@@ -378,4 +377,17 @@ int main(int argc, char** argv) {
   if (command == "plan") return mav::mavctl::PlanCommand(args);
   std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
   return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Our code reports errors as values; what is left is std::bad_alloc and the like from the
+  // standard library and gRPC: say so and exit non-zero instead of aborting.
+  try {
+    return Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "mavctl: " << e.what() << "\n";
+    return 1;
+  }
 }

@@ -116,7 +116,7 @@ Status ControlCore::PublishLocked(int64_t t_ns, bool armed, const control::Rotor
   out.t_ns = t_ns;
   out.armed = armed;
   out.rotor_speeds_radps = speeds;
-  const Status s = sink_->PublishCommand(out);
+  Status s = sink_->PublishCommand(out);
   if (!s.ok()) last_error_ = "publishing a command: " + s.ToString();
   return s;
 }

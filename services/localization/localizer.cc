@@ -166,7 +166,7 @@ Ticket<Result<RigPose>> Localizer::Submit(StereoInput input, QueuePolicy policy,
 Status Localizer::SubmitLive(StereoInput input) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    const Status check = CheckInputLocked(input, "stereo");
+    Status check = CheckInputLocked(input, "stereo");
     if (!check.ok()) {
       if (!config_.has_value()) return check;
       ++frames_rejected_;

@@ -238,7 +238,7 @@ Status Player::Run(const TaskContext& context, bool paced, int64_t frames) {
   anchor();
   int64_t published = 0;
   while (!context.ShouldStop() && (frames < 0 || published < frames)) {
-    const Status status = PublishNextFrame(context, paced);
+    Status status = PublishNextFrame(context, paced);
     std::lock_guard<std::mutex> lock(mutex_);
     if (!status.ok()) {
       last_error_ = status.ToString();

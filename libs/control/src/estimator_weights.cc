@@ -77,7 +77,7 @@ struct AxisFilter {
   Eigen::Matrix<double, N, M> Update(const Eigen::Matrix<double, M, 1>& r) {
     const Eigen::Matrix<double, M, M> s =
         H * P * H.transpose() + Eigen::Matrix<double, M, M>(r.asDiagonal());
-    const Eigen::Matrix<double, N, M> k = P * H.transpose() * s.inverse();
+    Eigen::Matrix<double, N, M> k = P * H.transpose() * s.inverse();
     const Mat ikh = Mat::Identity() - k * H;
     P = ikh * P * ikh.transpose() + k * r.asDiagonal() * k.transpose();
     return k;

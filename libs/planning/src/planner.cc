@@ -88,6 +88,7 @@ Result<internal::LegOutcome> RoadmapLeg(const ClearanceMap& map, const Roadmap& 
   bool joined = std::isfinite(direct);
   {
     std::vector<uint32_t> labels;
+    labels.reserve(from_a.size());
     for (const Connection& c : from_a) labels.push_back(roadmap.component(c.milestone));
     std::sort(labels.begin(), labels.end());
     for (const Connection& c : to_b) {

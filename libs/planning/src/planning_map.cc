@@ -186,8 +186,9 @@ namespace {
 Status FillStates(const octomap::OcTree& tree, const PlanningMap::Impl& m, const Termination& stop,
                   std::vector<uint8_t>* states, uint64_t* leaves) {
   const Eigen::Vector3d hi = m.origin + m.size.cast<double>() * m.cell;
-  const octomap::point3d bbx_min(m.origin.x(), m.origin.y(), m.origin.z());
-  const octomap::point3d bbx_max(hi.x(), hi.y(), hi.z());
+  const Eigen::Vector3f lo_f = m.origin.cast<float>(), hi_f = hi.cast<float>();
+  const octomap::point3d bbx_min(lo_f.x(), lo_f.y(), lo_f.z());
+  const octomap::point3d bbx_max(hi_f.x(), hi_f.y(), hi_f.z());
   *leaves = 0;
   for (auto it = tree.begin_leafs_bbx(bbx_min, bbx_max), end = tree.end_leafs_bbx(); it != end;
        ++it) {

@@ -78,7 +78,7 @@ class LazyThetaStar {
   Eigen::Vector3i Cell(uint32_t v) const {
     const int64_t i = v % size_.x(), j = (v / size_.x()) % size_.y(),
                   k = v / (int64_t{size_.x()} * size_.y());
-    return Eigen::Vector3i(i, j, k);
+    return Eigen::Vector3i(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k));
   }
   Eigen::Vector3d Position(uint32_t v) const {
     if (v == start_) return a_;

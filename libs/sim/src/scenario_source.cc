@@ -194,7 +194,7 @@ Result<std::unique_ptr<ScenarioSource>> OpenEuroc(const std::string& directory) 
 
 // ---- FramePrefetcher --------------------------------------------------------------------------
 
-FramePrefetcher::FramePrefetcher(std::shared_ptr<const ScenarioSource> source, int threads,
+FramePrefetcher::FramePrefetcher(const std::shared_ptr<const ScenarioSource>& source, int threads,
                                  int depth, OnRendered on_rendered)
     : FramePrefetcher(
           Frames{source->info().frames, [source](int64_t k) { return source->FrameTimeNs(k); },

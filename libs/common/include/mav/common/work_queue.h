@@ -260,13 +260,13 @@ class WorkQueue {
 
  private:
   template <typename R, typename Fn>
-  Ticket<R> SubmitImpl(Fn&& fn, QueuePolicy policy, Termination termination,
+  Ticket<R> SubmitImpl(Fn&& fn, QueuePolicy policy, const Termination& termination,
                        const std::string& reset_reason) {
     static_assert(std::is_constructible_v<R, Status>, "R must be Status or Result<T>");
     auto task = std::make_shared<internal::Task<R>>();
     task->fn = std::forward<Fn>(fn);
     task->policy = policy;
-    task->termination = std::move(termination);
+    task->termination = termination;
     Ticket<R> ticket;
     ticket.core_ = core_;
     ticket.task_ = task;

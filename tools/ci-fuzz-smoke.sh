@@ -44,7 +44,7 @@ log() { printf '\033[1m[fuzz]\033[0m %s\n' "$*" >&2; }
 start=$(date +%s)
 
 if [[ ${#targets[@]} -eq 0 ]]; then
-  mapfile -t targets < <(sed -n 's/^mav_add_fuzzer(\([a-z0-9_]*\) .*/\1/p' \
+  mapfile -t targets < <(sed -n 's/^ *mav_add_fuzzer(\([a-z0-9_]*\) .*/\1/p' \
     "$repo/tests/fuzz/CMakeLists.txt" | grep -v '^octomap_bt_raw_fuzzer$')
 fi
 

@@ -46,7 +46,7 @@ class Stack {
     argv.insert(argv.end(), extra.begin(), extra.end());
     auto child = std::make_unique<Child>(argv, Log(binary));
     if (!child->running()) return "";
-    const std::string target = "127.0.0.1:" + std::to_string(port);
+    std::string target = "127.0.0.1:" + std::to_string(port);
     children_[binary] = std::move(child);
     if (!WaitServing(target, health_name)) return "";
     targets_[binary] = target;

@@ -734,7 +734,7 @@ TEST_F(MappingContractTest, FiftyThousandBoxesFitOneCallOverARealPort) {
   v1::QueryCollisionRequest query;
   for (int i = 0; i < 50000; ++i) {
     const double x = -3.0 + 6.0 * (i % 100) / 100.0, y = -3.0 + 6.0 * (i / 100 % 100) / 100.0;
-    const double z = 1.0 + 0.25 * (i / 10000);
+    const double z = 1.0 + 0.25 * static_cast<double>(i / 10000);  // five layers
     *query.add_boxes() = MakeBox(x, y, z, x + 0.31, y + 0.29, z + 0.2);
   }
   auto stub = v1::Mapping::NewStub(

@@ -46,7 +46,7 @@ std::chrono::system_clock::time_point Deadline(double seconds) {
 }
 
 std::string TestDir() {
-  const std::string dir = std::string(MAV_BINARY_DIR) + "/Testing/planning_contract";
+  std::string dir = std::string(MAV_BINARY_DIR) + "/Testing/planning_contract";
   EXPECT_TRUE(MakeDirectories(dir).ok());
   return dir;
 }
@@ -74,7 +74,7 @@ const std::string& RoomBytes() {
 
 const std::string& RoomPath() {
   static const std::string path = [] {
-    const std::string p = TestDir() + "/room.bt";
+    std::string p = TestDir() + "/room.bt";
     MAV_CHECK(WriteStringToFileAtomic(p, RoomBytes()).ok());
     return p;
   }();
@@ -809,6 +809,7 @@ TEST_F(PlanningContractTest, ManyPlansWhileTheRoadmapIsRebuilt) {
   constexpr int kThreads = 12;
   std::atomic<int> ok{0}, failed{0}, during_build{0};
   std::vector<std::thread> clients;
+  clients.reserve(kThreads);
   for (int t = 0; t < kThreads; ++t) {
     clients.emplace_back([&, t] {
       auto stub = v1::Planning::NewStub(server_->InProcessChannel());

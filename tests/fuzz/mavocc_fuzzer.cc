@@ -35,8 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const uint64_t sum = Fnv1a64(bytes.data(), bytes.size() - 8);
     std::memcpy(bytes.data() + bytes.size() - 8, &sum, 8);
   }
-  const Result<dataset::OccupancyGrid> grid =
-      dataset::DecodeMavocc(bytes, fuzz::kName, kMaxVoxels);
+  const Result<dataset::OccupancyGrid> grid = dataset::DecodeMavocc(bytes, fuzz::kName, kMaxVoxels);
   if (!grid.ok()) {
     if (grid.status().code() == StatusCode::kResourceExhausted) {
       MAV_CHECK(grid.status().message().size() <= 1024);

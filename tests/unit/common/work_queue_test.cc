@@ -53,6 +53,7 @@ TEST(WorkQueueTest, RunsTasksInOrderAndReturnsResults) {
   WorkQueue queue(WorkQueueOptions::Named("q", 8));
   std::vector<int> order;
   std::vector<Ticket<Result<int>>> tickets;
+  tickets.reserve(5);
   for (int i = 0; i < 5; ++i) {
     tickets.push_back(queue.Submit<Result<int>>([i, &order](const TaskContext&) -> Result<int> {
       order.push_back(i);
@@ -296,6 +297,7 @@ TEST(WorkQueueStressTest, ConcurrentProducersResetsAndDeadlines) {
   std::atomic<int> resolved{0};
   std::atomic<int> accepted{0};
   std::vector<std::thread> producers;
+  producers.reserve(kThreads);
   for (int p = 0; p < kThreads; ++p) {
     producers.emplace_back([&, p] {
       std::mt19937 rng(p);

@@ -109,8 +109,8 @@ class FramePrefetcher {
   };
 
   // The frames of a source (kept alive by the prefetcher).
-  FramePrefetcher(const std::shared_ptr<const ScenarioSource>& source, int threads = 2, int depth = 4,
-                  OnRendered on_rendered = {});
+  FramePrefetcher(const std::shared_ptr<const ScenarioSource>& source, int threads = 2,
+                  int depth = 4, OnRendered on_rendered = {});
   FramePrefetcher(Frames frames, int threads, int depth, OnRendered on_rendered = {});
   ~FramePrefetcher();
   FramePrefetcher(const FramePrefetcher&) = delete;

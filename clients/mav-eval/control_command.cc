@@ -204,6 +204,9 @@ int RunControl(const std::vector<std::string>& args) {
   const control::AutopilotOptions ap_defaults;
   double observer_s = ap_defaults.disturbance_observer_s, blend_s = ap_defaults.correction_blend_s;
   bool decoupled = false;
+  double tilt_braking = ap_defaults.tilt_braking_fraction;
+  bool strict_thrust = false;
+  double model_mass = 0;
   const control::PaperControllerGains gust_defaults = control::AutopilotOptions::GustGains();
   double gust_pole = 0;
   double gust_attitude_omega = gust_defaults.attitude_omega_radps;
@@ -222,6 +225,15 @@ int RunControl(const std::vector<std::string>& args) {
   flags.AddDouble("attitude-zeta", &attitude_zeta, "paper: planar loop damping");
   flags.AddDouble("observer-s", &observer_s, "disturbance observer time constant [s] (0 = off)");
   flags.AddDouble("blend-s", &blend_s, "correction blending time constant [s] (0 = off)");
+  flags.AddDouble("tilt-braking", &tilt_braking,
+                  "paper: fraction of the rotors' angular acceleration the bounded planar loop "
+                  "keeps for stopping a tilt (0 = the paper's unbounded linear loop)");
+  flags.AddBool("strict-thrust-priority", &strict_thrust,
+                "paper: the allocation keeps the thrust even at the top, where roll/pitch then "
+                "get no torque (the old allocation; with --tilt-braking 0: the paper's loop)");
+  flags.AddDouble("model-mass", &model_mass,
+                  "the vehicle mass the controllers are told [kg] (0 = the contest's 1.568 kg; "
+                  "the simulated Firefly weighs 1.5 kg)");
   flags.AddBool("decoupled-estimator", &decoupled,
                 "the paper's decoupled estimator weights (no tilt coupling)");
   bool help = false;
@@ -230,6 +242,7 @@ int RunControl(const std::vector<std::string>& args) {
     std::cout << flags.Help();
     return 0;
   }
+  if (!(model_mass >= 0)) return Fail("--model-mass: must be >= 0 (0 = the contest's)", 2);
   std::vector<control::ControllerType> controllers;
   if (controller_name == "paper" || controller_name == "all") {
     controllers.push_back(control::ControllerType::kPaper);
@@ -297,6 +310,9 @@ int RunControl(const std::vector<std::string>& args) {
         a->disturbance_observer_s = observer_s;
         a->correction_blend_s = blend_s;
         a->estimator.couple_tilt = !decoupled;
+        a->tilt_braking_fraction = tilt_braking;
+        if (model_mass > 0) a->vehicle.mass_kg = model_mass;
+        a->allocation.roll_pitch_before_thrust_at_top = !strict_thrust;
         a->gust_threshold_mps2 = gust_threshold;
         if (gust_pole <= 0) {
           a->gust_gains.reset();

@@ -28,14 +28,26 @@ Allocator::Allocator(const VehicleParameters& vehicle, const AllocationOptions& 
   pinv_ = mixer_.transpose() * aat.inverse();
   u_min_ = options.min_rotor_speed_radps * options.min_rotor_speed_radps;
   u_max_ = vehicle.max_rotor_speed_radps * vehicle.max_rotor_speed_radps;
+  // The thrust the rotors give with no torque (thrust alone spreads evenly over the rotors for a
+  // symmetric vehicle: the thrust column of A^+ is uniform).
+  thrust_min_ = -1e300;
+  thrust_max_ = 1e300;
+  for (int i = 0; i < vehicle.rotor_count; ++i) {
+    if (pinv_(i, 0) > 0) {
+      thrust_min_ = std::max(thrust_min_, u_min_ / pinv_(i, 0));
+      thrust_max_ = std::min(thrust_max_, u_max_ / pinv_(i, 0));
+    }
+  }
+  thrust_mid_ = 0.5 * (thrust_min_ + thrust_max_);
 }
 
 namespace {
 
-// Largest s in [0, 1] with lo <= base + s * delta <= hi for every rotor (base must fit).
+// Largest s >= 0 with lo <= base + s * delta <= hi for every rotor (base must fit; 1e300 for a
+// zero delta).
 template <typename V>
-double FeasibleScale(const V& base, const V& delta, double lo, double hi) {
-  double s = 1.0;
+double MaxScale(const V& base, const V& delta, double lo, double hi) {
+  double s = 1e300;
   for (int i = 0; i < base.size(); ++i) {
     if (delta[i] > 1e-12) {
       s = std::min(s, (hi - base[i]) / delta[i]);
@@ -43,10 +55,29 @@ double FeasibleScale(const V& base, const V& delta, double lo, double hi) {
       s = std::min(s, (lo - base[i]) / delta[i]);
     }
   }
-  return std::clamp(s, 0.0, 1.0);
+  return std::max(s, 0.0);
+}
+
+// The same in [0, 1].
+template <typename V>
+double FeasibleScale(const V& base, const V& delta, double lo, double hi) {
+  return std::min(MaxScale(base, delta, lo, hi), 1.0);
 }
 
 }  // namespace
+
+double Allocator::MaxRollPitchTorque(double thrust, const Eigen::Vector2d& direction) const {
+  const double norm = direction.norm();
+  if (!(norm > 0)) return 0;
+  // As Allocate: thrust above thrust_mid_ gives way to roll/pitch, so the reach there is the
+  // reach at thrust_mid_ (the widest).
+  const double t = std::clamp(thrust, thrust_min_,
+                              options_.roll_pitch_before_thrust_at_top ? thrust_mid_ : thrust_max_);
+  using U = Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxRotors, 1>;
+  const U base = pinv_.col(0) * t;
+  const U delta = (pinv_.col(1) * direction.x() + pinv_.col(2) * direction.y()) / norm;
+  return MaxScale(base, delta, u_min_, u_max_);
+}
 
 RotorVector Allocator::Allocate(const Wrench& wrench, AllocationResult* result) const {
   const int n = vehicle_.rotor_count;
@@ -57,23 +88,27 @@ RotorVector Allocator::Allocate(const Wrench& wrench, AllocationResult* result) 
     u = pinv_ * wrench;
     for (int i = 0; i < n; ++i) u[i] = std::clamp(u[i], u_min_, u_max_);
   } else {
-    // Thrust alone spreads evenly over the rotors (the thrust column of A^+ is uniform for a
-    // symmetric vehicle); clamp it so that it fits with no torque.
+    // Clamp the thrust so that it fits with no torque.
     const U u_thrust_unit = pinv_.col(0);
     double thrust = wrench[0];
-    double lo_t = -1e300, hi_t = 1e300;
-    for (int i = 0; i < n; ++i) {
-      if (u_thrust_unit[i] > 0) {
-        lo_t = std::max(lo_t, u_min_ / u_thrust_unit[i]);
-        hi_t = std::min(hi_t, u_max_ / u_thrust_unit[i]);
+    if (thrust < thrust_min_ || thrust > thrust_max_) {
+      info.thrust_saturated = true;
+      thrust = std::clamp(thrust, thrust_min_, thrust_max_);
+    }
+    const U rp = pinv_.col(1) * wrench[1] + pinv_.col(2) * wrench[2];
+    // At the top, roll/pitch before thrust: lower the thrust until the torque fits, but not
+    // below the thrust with the widest room (thrust_mid_).
+    if (options_.roll_pitch_before_thrust_at_top && thrust > thrust_mid_) {
+      double t_top = thrust;
+      for (int i = 0; i < n; ++i) {
+        if (u_thrust_unit[i] > 0) t_top = std::min(t_top, (u_max_ - rp[i]) / u_thrust_unit[i]);
+      }
+      if (t_top < thrust) {
+        thrust = std::max(t_top, thrust_mid_);
+        info.thrust_saturated = true;
       }
     }
-    if (thrust < lo_t || thrust > hi_t) {
-      info.thrust_saturated = true;
-      thrust = std::clamp(thrust, lo_t, hi_t);
-    }
     const U base = u_thrust_unit * thrust;
-    const U rp = pinv_.col(1) * wrench[1] + pinv_.col(2) * wrench[2];
     info.roll_pitch_scale = FeasibleScale(base, rp, u_min_, u_max_);
     const U with_rp = base + info.roll_pitch_scale * rp;
     const U yaw = pinv_.col(3) * wrench[3];

@@ -42,6 +42,9 @@ bool AutopilotOptions::IsValid(std::string* why) const {
   if (!prefixed("allocation.", allocation.IsValid(w))) return false;
   if (!prefixed("goto_limits.", goto_limits.IsValid(w))) return false;
   if (!(max_tilt_rad > 0 && max_tilt_rad < 1.5)) return fail("max_tilt_rad: must be in (0, 1.5)");
+  if (!(tilt_braking_fraction >= 0 && tilt_braking_fraction <= 1)) {
+    return fail("tilt_braking_fraction: must be in [0, 1] (0 = off)");
+  }
   if (!(imu_timeout_s > 0 && std::isfinite(imu_timeout_s))) {
     return fail("imu_timeout_s: must be positive");
   }
@@ -107,6 +110,8 @@ Autopilot::Autopilot(const AutopilotOptions& options, Estimator estimator)
     o.vehicle = options.vehicle;
     o.gains = options.paper_gains;
     o.max_tilt_rad = options.max_tilt_rad;
+    o.tilt_braking_fraction = options.tilt_braking_fraction;
+    o.allocation = options.allocation;
     controller_ = std::make_unique<PaperController>(o);
   } else {
     LeeControllerOptions o;

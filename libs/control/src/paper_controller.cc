@@ -84,12 +84,39 @@ bool PaperControllerOptions::IsValid(std::string* why) const {
   if (!vehicle.IsValid(why)) return false;
   if (!gains.IsValid(why)) return false;
   if (!(max_tilt_rad > 0 && max_tilt_rad < 1.5)) return Fail(why, "max_tilt_rad: (0, 1.5)");
+  if (!(tilt_braking_fraction >= 0 && tilt_braking_fraction <= 1)) {
+    return Fail(why, "tilt_braking_fraction: must be in [0, 1] (0 = off)");
+  }
+  if (!allocation.IsValid(why)) return false;
+  if (allocation.min_rotor_speed_radps >= vehicle.max_rotor_speed_radps) {
+    return Fail(why,
+                "allocation.min_rotor_speed_radps: must be below vehicle.max_rotor_speed_radps");
+  }
   return true;
 }
 
-PaperController::PaperController(const PaperControllerOptions& options) : options_(options) {
+namespace {
+
+const PaperControllerOptions& Checked(const PaperControllerOptions& options) {
   std::string why;
   MAV_CHECK(options.IsValid(&why)) << why;
+  return options;
+}
+
+}  // namespace
+
+PaperController::PaperController(const PaperControllerOptions& options)
+    : options_(Checked(options)), allocator_(options.vehicle, options.allocation) {}
+
+double PaperController::AngularAccelerationReach(double thrust,
+                                                 const Eigen::Vector2d& e_body_xy) const {
+  // The planar map below: dw_y ~ e_x, dw_x ~ -e_y.
+  const Eigen::Vector3d& J = options_.vehicle.inertia_kgm2;
+  Eigen::Vector2d dw(-e_body_xy.y(), e_body_xy.x());
+  if (!(dw.norm() > 1e-12)) dw = Eigen::Vector2d(0, 1);
+  dw.normalize();
+  const Eigen::Vector2d torque = J.head<2>().cwiseProduct(dw);
+  return allocator_.MaxRollPitchTorque(thrust, torque) / torque.norm();
 }
 
 void PaperController::Reset() {
@@ -164,7 +191,29 @@ Wrench PaperController::Update(const EstimatorState& x, const TrajectoryPoint& r
                                 k0.cwiseProduct(ref.acceleration - a) + ki.cwiseProduct(de);
   const double ka1 = 2.0 * g.attitude_zeta * g.attitude_omega_radps;
   const double ka0 = g.attitude_omega_radps * g.attitude_omega_radps;
-  const Eigen::Vector3d s_c = dda_c + ka1 * (da_c - j) + ka0 * (a_c - a);
+  // The planar loop in nested form: the jerk (tilt rate) it asks for, j_c = ref.jerk + j_fb with
+  // the feedback j_fb = da_c - ref.jerk + P (a_c - a), P = ka0 / ka1, then s_c = dda_c + ka1 (j_c
+  // - j): exactly the linear loop above. j_fb acts on the acceleration error with the gain
+  // K = k1 + P (the translational loop's k1 (ref.acceleration - a) inside da_c adds to the
+  // planar P), so |j_fb| / K is the acceleration error it closes; beyond the linear range that is
+  // shaped to the rate that can still be stopped (PaperControllerOptions::tilt_braking_fraction).
+  // Only the part across the thrust axis tilts the vehicle (the body-z part of s_c is unused).
+  const double p_gain = ka0 / ka1;
+  Eigen::Vector3d j_fb = da_c - ref.jerk + p_gain * (a_c - a);
+  if (options_.tilt_braking_fraction > 0 && t_m > 0.1) {
+    const double k = std::max(k1.x(), k1.y()) + p_gain;
+    Eigen::Vector3d j_body = R.transpose() * j_fb;
+    const double n = j_body.head<2>().norm();
+    const double s_brake =
+        options_.tilt_braking_fraction * t_m * AngularAccelerationReach(thrust, j_body.head<2>());
+    const double e_lin = s_brake / (k * k);
+    if (n > k * e_lin) {
+      j_body.head<2>() *= std::sqrt(2.0 * s_brake * (n / k - 0.5 * e_lin)) / n;
+      j_fb = R * j_body;
+    }
+  }
+  const Eigen::Vector3d j_c = ref.jerk + j_fb;
+  const Eigen::Vector3d s_c = dda_c + ka1 * (j_c - j);
 
   // Planar part through the torques: (dw/dt x e3 + w x (w x e3))_xy = (R^T s_c / t_m)_xy.
   Eigen::Vector3d dw = Eigen::Vector3d::Zero();

@@ -7,6 +7,7 @@
 #include "mav/control/reference.h"
 #include "mav/eval/contest_score.h"
 #include "mav/eval/flight_mission.h"
+#include "mav/planning/trajectory.h"
 #include "mav/sim/flight_task.h"
 
 namespace mav::eval {
@@ -125,6 +126,107 @@ TEST(FlightContestTest, PlantLegOnAHandMadeTrajectory) {
   EXPECT_TRUE(s.goals[0].settled);
   EXPECT_NEAR(s.goals[0].path_length_m, 4.0, 0.3);
   EXPECT_GT(s.goals[0].peak_speed_mps, 1.0);
+}
+
+// Free space everywhere in a big box (the clearance is always the saturation): legs planned by
+// libs/planning's trajectory stage alone, straight.
+class OpenSky : public planning::ClearanceMap {
+ public:
+  double Clearance(const Eigen::Vector3d&) const override { return 5.0; }
+  const planning::Box& bounds() const override { return bounds_; }
+  double resolution() const override { return 0.25; }
+  double robot_radius() const override { return 0.5; }
+  double max_distance() const override { return 5.0; }
+  uint64_t fingerprint() const override { return 1; }
+
+ private:
+  planning::Box bounds_{{-100, -100, -100}, {100, 100, 100}};
+};
+
+// t4_3's legs in open sky: 21.7, 18.8 and 25.5 m (the planned legs' lengths), each from rest to
+// rest at the Firefly's limits (10 m/s, 6 m/s^2, 7 m/s^2 lateral, 15 m/s^3), fitted as the
+// planner fits them (a quintic spline with knots every 0.25 s): braking from ~9.7 m/s with a
+// jerk spike of ~70 m/s^3 in the last 0.2 s.
+dataset::FlightTask HardBrakingLegs() {
+  dataset::FlightTask t = *sim::BuiltinFlightTask("t4_3", "");
+  t.map_path.clear();
+  const Eigen::Vector3d a(0, 0, 10), b(21.7, 0, 10), c(21.7, -18.8, 10), d(0, -5.0, 6);
+  t.goals = {{10, a, 0}, {25, b, 0}, {45, c, 0}, {65, d, 0}};
+  t.duration_s = 85;
+  return t;
+}
+
+LegPlanner StraightLegs(double* peak_speed, double* peak_jerk) {
+  return [=](const Eigen::Vector3d& start, const Eigen::Vector3d& goal, double yaw,
+             const sim::CollisionWorld*) -> Result<geometry::PolynomialTrajectory> {
+    planning::TrajectoryOptions o;
+    o.start_yaw_rad = yaw;
+    MAV_ASSIGN_OR_RETURN(planning::TrajectoryResult r,
+                         planning::PlanTrajectory(OpenSky(), {start, goal}, {}, o));
+    for (const geometry::TrajectoryPoint& p : r.trajectory.Sample(0.005)) {
+      *peak_speed = std::max(*peak_speed, p.velocity.norm());
+      *peak_jerk = std::max(*peak_jerk, p.jerk.norm());
+    }
+    return r.trajectory;
+  };
+}
+
+// The braking at the end of a leg (and the jerk spike the spline ends with) asks the paper
+// controller's linear planar loop for 3-5x the roll/pitch torque the rotors have; the bounded
+// loop keeps its tilt rates inside what the rotors can stop (docs/control.md, "t4_3"). Every
+// seed: no collision, every leg settled, no oscillation left in the scored windows (with the
+// allocation's roll/pitch priority at the top but the unbounded loop the vehicle survives too,
+// but rings at 0.24-0.37 rad/s with tilts to 52 deg).
+TEST(FlightContestTest, HardBrakingLegsAtTheFireflyLimitsSettle) {
+  const dataset::FlightTask t = HardBrakingLegs();
+  double peak_speed = 0, peak_jerk = 0;
+  double sum_settle = 0;
+  for (uint64_t seed = 1000; seed < 1020; ++seed) {
+    FlightMissionOptions o;
+    o.seed = seed;
+    o.planner = StraightLegs(&peak_speed, &peak_jerk);
+    const Result<FlightRecord> r = FlyTask(t, o);
+    ASSERT_TRUE(r.ok()) << r.status().ToString();
+    EXPECT_TRUE(r->collisions.empty()) << seed << ": " << r->collisions.front().what;
+    double max_tilt = 0;
+    for (const FlightRecordSample& sample : r->samples) {
+      const double cos_tilt = (sample.truth.q_world_body * Eigen::Vector3d::UnitZ()).z();
+      if (sample.t_s > 12) max_tilt = std::max(max_tilt, std::acos(std::min(cos_tilt, 1.0)));
+    }
+    EXPECT_LT(max_tilt, 48 * M_PI / 180) << seed;  // measured 42.7-44.1 deg (leg 4's start)
+    const TaskScore s = ScoreFlight(t, *r);
+    EXPECT_TRUE(s.all_settled) << seed;
+    EXPECT_LT(s.settling_time_s, 7.0) << seed;
+    EXPECT_LT(s.angular_rate_rms_radps, 0.1) << seed;  // measured 0.044-0.059 rad/s
+    EXPECT_GE(s.points, 19) << seed;
+    sum_settle += s.settling_time_s;
+  }
+  // The legs are what t4_3 flies: near 10 m/s with a jerk spike at their ends (measured 9.7 m/s
+  // and 81 m/s^3).
+  EXPECT_GT(peak_speed, 9.0);
+  EXPECT_GT(peak_jerk, 40.0);
+  EXPECT_LT(sum_settle / 20, 6.5);  // measured 5.77 s
+}
+
+// The same legs with the paper's unbounded linear loop and strict thrust priority (the controller
+// before the fix): the vehicle oscillates after the first hard braking and flips, every seed.
+TEST(FlightContestTest, HardBrakingLegsFlipThePaperLinearLoop) {
+  const dataset::FlightTask t = HardBrakingLegs();
+  double peak_speed = 0, peak_jerk = 0;
+  int crashed = 0;
+  for (uint64_t seed = 1000; seed < 1005; ++seed) {
+    FlightMissionOptions o;
+    o.seed = seed;
+    o.planner = StraightLegs(&peak_speed, &peak_jerk);
+    o.tune = [](control::AutopilotOptions* a) {
+      a->tilt_braking_fraction = 0;
+      a->allocation.roll_pitch_before_thrust_at_top = false;
+    };
+    const Result<FlightRecord> r = FlyTask(t, o);
+    ASSERT_TRUE(r.ok()) << r.status().ToString();
+    crashed += !r->collisions.empty();
+  }
+  EXPECT_EQ(crashed, 5);
 }
 
 }  // namespace

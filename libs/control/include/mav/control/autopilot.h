@@ -48,6 +48,9 @@ struct AutopilotOptions {
   ControllerType controller = ControllerType::kPaper;
   PaperControllerGains paper_gains;
   double max_tilt_rad = 0.9;  // paper controller's bound on the commanded tilt
+  // The paper controller's bounded planar loop (PaperControllerOptions::tilt_braking_fraction;
+  // 0 = the paper's linear loop).
+  double tilt_braking_fraction = 0.5;
   LeeControllerGains lee_gains;
   // The paper controller's allocation (prioritised); the Lee peer always clips per rotor as
   // RotorS does.

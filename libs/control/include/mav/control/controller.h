@@ -39,6 +39,7 @@
 
 #include <Eigen/Core>
 
+#include "mav/control/allocation.h"
 #include "mav/control/estimator.h"
 #include "mav/control/vehicle.h"
 #include "mav/geometry/polynomial_trajectory.h"
@@ -94,6 +95,18 @@ struct PaperControllerOptions {
   PaperControllerGains gains;
   // The commanded horizontal acceleration is bounded to this tilt of the thrust axis.
   double max_tilt_rad = 0.9;
+  // The bounded planar loop (our addition; 0 = off, the paper's linear loop). The planar loop
+  // asks for the tilt rate (jerk) j_c = da_c + (w_a / 2 zeta_a) (a_c - a); beyond the linear
+  // range that is shaped as sqrt(2 s_b (|e| - e_lin / 2)) (C1 at e_lin = s_b / P^2, P = w_a /
+  // 2 zeta_a), the rate that can still be stopped with s_b = tilt_braking_fraction * (T/m) *
+  // the angular acceleration the rotors can give beside the thrust along the needed direction.
+  // Without it the linear loop asks for 144 rad/s^2 per rad of tilt error (w_a = 12 rad/s) where
+  // the Firefly's rotors give about 40 rad/s^2 at hover thrust: the allocation scales the torque
+  // down, and after a hard braking (t4_3) the saturated loop oscillates and flips the vehicle.
+  // Validated [0, 1].
+  double tilt_braking_fraction = 0.5;
+  // The rotors' range the bound is computed for (the allocation the autopilot flies with).
+  AllocationOptions allocation;
   bool IsValid(std::string* why) const;
 };
 
@@ -113,7 +126,12 @@ class PaperController : public TrackingController {
   const PaperControllerOptions& options() const { return options_; }
 
  private:
+  // The angular acceleration (rad/s^2) the rotors can give beside `thrust` about the body axis
+  // that turns the thrust towards the body-frame horizontal acceleration error `e_body_xy`.
+  double AngularAccelerationReach(double thrust, const Eigen::Vector2d& e_body_xy) const;
+
   PaperControllerOptions options_;
+  Allocator allocator_;
   Eigen::Vector3d integral_ = Eigen::Vector3d::Zero();  // int(e) dt, m s
   Eigen::Vector3d disturbance_ = Eigen::Vector3d::Zero();
 };

@@ -733,8 +733,9 @@ TEST_F(MappingContractTest, FiftyThousandBoxesFitOneCallOverARealPort) {
   ASSERT_TRUE(Build(build).ok());
   v1::QueryCollisionRequest query;
   for (int i = 0; i < 50000; ++i) {
-    const double x = -3.0 + 6.0 * (i % 100) / 100.0, y = -3.0 + 6.0 * (i / 100 % 100) / 100.0;
-    const double z = 1.0 + 0.25 * static_cast<double>(i / 10000);  // five layers
+    const int column = i % 100, row = i / 100 % 100, layer = i / 10000;  // five layers
+    const double x = -3.0 + 6.0 * column / 100.0, y = -3.0 + 6.0 * row / 100.0;
+    const double z = 1.0 + 0.25 * layer;
     *query.add_boxes() = MakeBox(x, y, z, x + 0.31, y + 0.29, z + 0.2);
   }
   auto stub = v1::Mapping::NewStub(

@@ -238,7 +238,8 @@ TEST(MappingStackTest, BuildsAMapFromTheSimulatorsStreamsAndServesIt) {
     const geometry::SE3 T_world_cam = scenario->StateAt(scenario->FrameTimeNs(k)).T_world_body *
                                       scenario->calibration().T_body_cam0;
     for (int r = 0; r < 35; ++r) {
-      const Eigen::Vector3d ray(-0.6 + 0.2 * (r % 7), -0.4 + 0.2 * static_cast<double>(r / 7), 1.0);
+      const int column = r % 7, row = r / 7;
+      const Eigen::Vector3d ray(-0.6 + 0.2 * column, -0.4 + 0.2 * row, 1.0);
       const Eigen::Vector3d& origin = T_world_cam.Translation();
       const Eigen::Vector3d direction = T_world_cam.Rotation() * ray.normalized();
       for (double d = 0.1; d < kMaxSolidDepth; d += 0.01) {

@@ -124,6 +124,7 @@ TEST(LeeControllerTest, LinearisedClosedLoopHasRotorSPoles) {
 TEST(PolynomialRootsTest, FindsKnownRoots) {
   const auto r = PolynomialRoots({1, -6, 11, -6});  // (s-1)(s-2)(s-3)
   std::vector<double> re;
+  re.reserve(r.size());
   for (const auto& x : r) re.push_back(x.real());
   std::sort(re.begin(), re.end());
   EXPECT_NEAR(re[0], 1, 1e-9);

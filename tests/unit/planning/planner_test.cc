@@ -155,6 +155,7 @@ TEST_F(PlannerTest, CallErrorsAreStatuses) {
 
 TEST_F(PlannerTest, ConcurrentQueriesGiveTheSameAnswers) {
   std::vector<PlanRequest> requests;
+  requests.reserve(12);
   for (int i = 0; i < 12; ++i) {
     requests.push_back(Request({1.5 + 0.1 * i, 1 + 0.5 * i, 1 + 0.2 * i},
                                {8.5 - 0.1 * i, 7 - 0.4 * i, 4 - 0.2 * i}));
@@ -166,6 +167,7 @@ TEST_F(PlannerTest, ConcurrentQueriesGiveTheSameAnswers) {
     serial[i] = r->shortened_path;
   }
   std::vector<std::thread> threads;
+  threads.reserve(3);
   for (int t = 0; t < 3; ++t) {
     threads.emplace_back([&, t] {
       for (size_t i = t; i < requests.size(); i += 3) {

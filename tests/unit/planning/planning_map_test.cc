@@ -44,6 +44,7 @@ std::vector<Eigen::Vector3d> ProbePoints(uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0, 1);
   std::vector<Eigen::Vector3d> points;
+  points.reserve(210);
   for (int i = 0; i < 150; ++i) {
     points.emplace_back(u(rng) * 10, u(rng) * 10, u(rng) * 5);
   }

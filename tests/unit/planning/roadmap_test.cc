@@ -115,7 +115,7 @@ TEST_F(RoadmapTest, CorruptFilesAreDataLossNamingTheFile) {
   auto built = Roadmap::Build(map(), SmallOptions(4));
   ASSERT_TRUE(built.ok());
   const std::string good = (*built)->Serialize();
-  const auto expect_loss = [&](std::string bytes, const std::string& what) {
+  const auto expect_loss = [&](const std::string& bytes, const std::string& what) {
     const std::string path = std::string(MAV_BINARY_DIR) + "/roadmap_test_corrupt.mavprm";
     ASSERT_TRUE(WriteStringToFileAtomic(path, bytes).ok());
     auto r = Roadmap::Load(path, map());

@@ -31,7 +31,8 @@ inline std::string MakeMapBytes(double resolution, const Box& world,
       for (double x = world.min.x() + resolution / 2; x < world.max.x(); x += resolution) {
         const Eigen::Vector3d p(x, y, z);
         if (inside(unknown, p)) continue;
-        tree.updateNode(octomap::point3d(x, y, z), inside(occupied, p));
+        const Eigen::Vector3f pf = p.cast<float>();
+        tree.updateNode(octomap::point3d(pf.x(), pf.y(), pf.z()), inside(occupied, p));
       }
     }
   }

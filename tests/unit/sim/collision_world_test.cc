@@ -17,7 +17,11 @@ TEST(CollisionWorldTest, OctomapClearanceIsTheExactDistanceToTheNearestOccupiedV
   std::uniform_real_distribution<double> u(-5, 5);
   std::vector<Eigen::Vector3d> centres;
   for (int i = 0; i < 40; ++i) {
-    const octomap::point3d p(u(rng), u(rng), u(rng));
+    // One draw per statement: the order of arguments' evaluation is unspecified.
+    const float x = static_cast<float>(u(rng));
+    const float y = static_cast<float>(u(rng));
+    const float z = static_cast<float>(u(rng));
+    const octomap::point3d p(x, y, z);
     octomap::OcTreeNode* n = tree.updateNode(p, true);
     tree.updateNode(p, true);
     ASSERT_NE(n, nullptr);

@@ -108,7 +108,7 @@ TEST(FlightContestTest, PlantLegOnAHandMadeTrajectory) {
     // Hand-made: the straight rest-to-rest move, checked against the map every 5 cm.
     geometry::TrajectoryPoint from;
     from.position = start;
-    const auto traj = control::MakeGoToTrajectory(from, goal, yaw, control::GoToLimits());
+    auto traj = control::MakeGoToTrajectory(from, goal, yaw, control::GoToLimits());
     for (const auto& p : traj->Sample(0.05)) {
       if (world->Clearance(p.position, 1.0) < 0.6) return Status::FailedPrecondition("blocked");
     }

@@ -1,6 +1,8 @@
 // yaml-cpp throws; every call into it is inside Parse's try block, and errors leave as Status.
 #include "mav/dataset/flight_task_io.h"
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <set>
 
@@ -8,6 +10,7 @@
 
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
+#include "mav/common/text.h"
 
 namespace mav::dataset {
 namespace {
@@ -23,7 +26,8 @@ class Reader {
       if (!known.count(key)) {
         std::string list;
         for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
-        return Status::InvalidArgument(Join(path, key) + ": unknown key (known: " + list + ")");
+        return Status::InvalidArgument(Join(path, Shown(key)) + ": unknown key (known: " + list +
+                                       ")");
       }
     }
     return Status::Ok();
@@ -54,6 +58,15 @@ class Reader {
     return Vector(n, Join(path, key), out);
   }
 
+  // A key as the user wrote it when it looks like one (letters, digits, '_', at most 64), else
+  // quoted and truncated (QuoteForError): a file's text is never echoed whole.
+  static std::string Shown(const std::string& key) {
+    const bool plain =
+        !key.empty() && key.size() <= 64 && std::all_of(key.begin(), key.end(), [](char c) {
+          return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+        });
+    return plain ? key : QuoteForError(key);
+  }
   static std::string Join(const std::string& path, const std::string& key) {
     return path.empty() ? key : path + "." + key;
   }

@@ -2,6 +2,8 @@
 
 #include <cstdlib>
 
+#include "mav/common/text.h"
+
 namespace mav::sim {
 
 using dataset::FlightGoal;
@@ -87,7 +89,8 @@ Result<FlightTask> BuiltinFlightTask(const std::string& name, const std::string&
   }
   std::string known;
   for (const std::string& n : FlightTaskNames()) known += (known.empty() ? "" : ", ") + n;
-  return Status::NotFound("task: unknown flight task '" + name + "' (known: " + known + ")");
+  return Status::NotFound("task: unknown flight task " + QuoteForError(name) + " (known: " + known +
+                          ")");
 }
 
 }  // namespace mav::sim

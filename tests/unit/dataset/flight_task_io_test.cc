@@ -87,6 +87,13 @@ TEST(FlightTaskIoTest, UnknownKeyNamesFileAndKey) {
   t = Parse("imu: {rate: 100}\n");
   ASSERT_FALSE(t.ok());
   EXPECT_NE(t.status().message().find("imu.rate: unknown key"), std::string::npos);
+  // A key that is no key is quoted and truncated, not echoed whole (found by the fuzzer: a 1 KB
+  // mapping key made a 1 KB message).
+  t = Parse("imu:\n  " + std::string(1000, '3') + ": 1\n");  // YAML's longest implicit key
+  ASSERT_FALSE(t.ok());
+  EXPECT_LT(t.status().message().size(), 300u) << t.status().message().substr(0, 400);
+  EXPECT_NE(t.status().message().find("(1000 bytes): unknown key"), std::string::npos)
+      << t.status().message().substr(0, 400);
   t = Parse("pose_sensors:\n  - {rate_hz: 10}\n  - {delay: 0.1}\n");
   ASSERT_FALSE(t.ok());
   EXPECT_NE(t.status().message().find("pose_sensors[1].delay"), std::string::npos);

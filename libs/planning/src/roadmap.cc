@@ -11,8 +11,8 @@
 #include <sstream>
 #include <thread>
 
-#include "mav/common/hash.h"
 #include "mav/common/file.h"
+#include "mav/common/hash.h"
 #include "mav/common/time.h"
 #include "mav/planning/path.h"
 #include "ompl_space.h"

@@ -39,8 +39,11 @@ struct MethodRun {
   std::unique_ptr<localization::RigOdometry> odometry;  // the localization service's code path
   std::vector<dataset::StampedPose> T_world_body;  // estimate in the ground truth's world frame
   std::vector<double> runtime_ms;                  // wall time of Process()
+  std::ostringstream frames_csv;                   // one line per frame (<method>_frames.csv)
   int lost_frames = 0;
+  int degraded_frames = 0;
   std::string first_lost_reason;
+  std::string first_degraded_reason;
 };
 
 struct MethodMetrics {
@@ -126,6 +129,8 @@ void PrintTables(const std::vector<MethodRun>& runs, const std::vector<MethodMet
 int RunLocalization(const std::vector<std::string>& args) {
   std::string data, method_name = "all", out_dir, json_path;
   int64_t max_frames = 0, step = 10;
+  bool use_gyro = true, consistency_check = true;
+  double gyro_bias_gain = localization::RigOdometryOptions().gyro_bias_gain;
   FlagParser flags(
       "mav-eval localization --data DIR [--method sparse-pixel|sparse-subpixel|dense|all] "
       "[--out DIR] [--json FILE]");
@@ -136,6 +141,14 @@ int RunLocalization(const std::vector<std::string>& args) {
   flags.AddString("json", &json_path, "write every figure as {method: {metric: value}}");
   flags.AddInt64("frames", &max_frames, "evaluate only the first N frames (0 = all)", 0,
                  std::numeric_limits<int64_t>::max());
+  flags.AddBool("gyro", &use_gyro,
+                "dense: use imu0's gyro (rotation prior and consistency check; --gyro=false: "
+                "vision only, as in the paper)");
+  flags.AddDouble("gyro-bias-gain", &gyro_bias_gain,
+                  "dense: per-frame gain of the online gyro bias estimate (0 = bias fixed at 0)");
+  flags.AddBool("consistency-check", &consistency_check,
+                "dense: the per-frame consistency check (DEGRADED frames; =false: every tracked "
+                "frame is published as measured)");
   flags.AddInt64("step", &step, "frames between segment starts of the relative error", 1, 1000000);
   std::vector<std::string> positional;
   bool help = false;
@@ -193,16 +206,24 @@ int RunLocalization(const std::vector<std::string>& args) {
     options.method = m;
     options.calibration = reader->calibration();
     options.T_world_body0 = first->ground_truth.front();
+    options.use_gyro = use_gyro;
+    options.gyro_bias_gain = gyro_bias_gain;
+    options.odometry.dense.consistency_check = consistency_check;
     auto odometry = localization::RigOdometry::Create(options);
     if (!odometry.ok()) {
       std::cerr << "mav-eval localization: " << odometry.status().message() << "\n";
       return 1;
     }
-    runs.push_back({m, std::move(odometry).value(), {}, {}, 0, {}});
+    MethodRun run;
+    run.method = m;
+    run.odometry = std::move(odometry).value();
+    runs.push_back(std::move(run));
   }
 
   ProgressBar progress("localization", n);
   cv::Mat raw_left, raw_right, left, right;
+  const std::vector<dataset::ImuSample>& imu = reader->imu();
+  size_t next_imu = 0;
   for (int64_t i = 0; i < n; ++i) {
     if (Status s = reader->ReadStereo(i, &raw_left, &raw_right); !s.ok()) {
       std::cerr << "\nmav-eval localization: " << s.message() << "\n";
@@ -215,6 +236,10 @@ int RunLocalization(const std::vector<std::string>& args) {
       return 1;
     }
     const int64_t t_ns = reader->frame_times()[static_cast<size_t>(i)];
+    // The gyro samples up to this frame, as the service receives them over DDS.
+    for (; next_imu < imu.size() && imu[next_imu].t_ns <= t_ns; ++next_imu) {
+      for (MethodRun& run : runs) run.odometry->AddGyro(imu[next_imu].t_ns, imu[next_imu].gyro);
+    }
     for (MethodRun& run : runs) {
       const int64_t start = MonotonicNowNs();
       auto frame = run.odometry->Process(t_ns, left, right, /*rectified=*/true);
@@ -227,7 +252,16 @@ int RunLocalization(const std::vector<std::string>& args) {
       if (frame->state == localization::ReportedState::kLost) {
         if (run.lost_frames++ == 0) run.first_lost_reason = frame->lost_reason;
       }
+      if (frame->state == localization::ReportedState::kDegraded) {
+        if (run.degraded_frames++ == 0) run.first_degraded_reason = frame->lost_reason;
+      }
       run.T_world_body.push_back({t_ns, frame->T_world_out});
+      run.frames_csv << i << ',' << t_ns << ',' << localization::ReportedStateName(frame->state)
+                     << ',' << frame->matches << ',' << frame->inliers << ',' << frame->residual
+                     << ',' << (frame->keyframe ? 1 : 0) << ',' << (frame->gyro_used ? 1 : 0) << ','
+                     << frame->T_prev_cur.Translation().norm() << ',' << frame->prediction_error_m
+                     << ',' << frame->gyro_rotation_error_deg << ",\"" << frame->lost_reason
+                     << "\"\n";
     }
     progress.Update(i + 1);
   }
@@ -280,10 +314,19 @@ int RunLocalization(const std::vector<std::string>& args) {
     json.Set(name, "runtime_p95_ms", m.runtime.p95_ms);
     json.Set(name, "frames", static_cast<double>(run.T_world_body.size()));
     json.Set(name, "lost_frames", static_cast<double>(run.lost_frames));
+    json.Set(name, "degraded_frames", static_cast<double>(run.degraded_frames));
+    json.Set(name, "gyro", run.method == Method::kDense && use_gyro ? 1.0 : 0.0);
 
     const std::string tum_path = out_dir + "/" + name;
-    if (Status s = dataset::WriteTumTrajectory(tum_path + ".tum", run.T_world_body); !s.ok()) {
-      std::cerr << "mav-eval localization: " << s.message() << "\n";
+    Status written = dataset::WriteTumTrajectory(tum_path + ".tum", run.T_world_body);
+    if (written.ok()) {
+      written = WriteStringToFileAtomic(tum_path + "_frames.csv",
+                                        "frame,t_ns,state,matches,support,residual,keyframe,gyro,"
+                                        "step_m,prediction_error_m,gyro_error_deg,reason\n" +
+                                            run.frames_csv.str());
+    }
+    if (!written.ok()) {
+      std::cerr << "mav-eval localization: " << written.message() << "\n";
       return 1;
     }
     if (gt_at_frames.empty()) {
@@ -314,6 +357,11 @@ int RunLocalization(const std::vector<std::string>& args) {
       std::printf("%s lost %d frames; first reason: %s\n", localization::MethodName(run.method),
                   run.lost_frames, run.first_lost_reason.c_str());
     }
+    if (run.degraded_frames > 0) {
+      std::printf("%s: %d frames DEGRADED (consistency check); first reason: %s\n",
+                  localization::MethodName(run.method), run.degraded_frames,
+                  run.first_degraded_reason.c_str());
+    }
   }
 
   Status s = dataset::WriteTumTrajectory(out_dir + "/ground_truth.tum", gt_at_frames);
@@ -323,8 +371,9 @@ int RunLocalization(const std::vector<std::string>& args) {
     std::cerr << "mav-eval localization: " << s.message() << "\n";
     return 1;
   }
-  std::printf("wrote %s/{<method>.tum, ground_truth.tum, trajectories.png}%s\n", out_dir.c_str(),
-              json_path.empty() ? "" : (" and " + json_path).c_str());
+  std::printf(
+      "wrote %s/{<method>.tum, <method>_frames.csv, ground_truth.tum, trajectories.png}%s\n",
+      out_dir.c_str(), json_path.empty() ? "" : (" and " + json_path).c_str());
   return 0;
 }
 

@@ -93,9 +93,13 @@ Status DdsIo::SetStereoInput(bool enabled) {
   stereo_reader_.emplace(std::move(stereo));
   imu_reader_.emplace(std::move(imu));
   read_loop_.emplace("localization input");
-  // IMU: counted (the VO is vision-only); its history (2 s) outlasts the poll period.
-  read_loop_->AddReader<mav_dds_ImuSample>(&*imu_reader_,
-                                           [this](const mav_dds_ImuSample&) { ++imu_received_; });
+  // IMU: the gyro goes to the localizer (dense VO); its history (2 s) outlasts the poll period.
+  read_loop_->AddReader<mav_dds_ImuSample>(&*imu_reader_, [this](const mav_dds_ImuSample& s) {
+    ++imu_received_;
+    if (localizer_ != nullptr) {
+      localizer_->AddGyro(s.t_ns, Eigen::Vector3d(s.gyro.x, s.gyro.y, s.gyro.z));
+    }
+  });
   read_loop_->SetWakeReader<mav_dds_StereoFrame>(
       &*stereo_reader_, [this](const mav_dds_StereoFrame& frame) { OnFrame(frame); }, 4);
   MAV_RETURN_IF_ERROR(read_loop_->Start());

@@ -1,8 +1,8 @@
 #pragma once
 // The localization service's data plane (docs/contracts.md):
 //   in   mav/sensors/stereo       mav_dds_StereoFrame        Qos::SensorStream() (keep-last 4)
-//   in   mav/sensors/imu          mav_dds_ImuSample          Qos::HighRate() (counted only: the
-//                                                            VO methods are vision-only)
+//   in   mav/sensors/imu          mav_dds_ImuSample          Qos::HighRate() (the gyro goes to
+//                                                            the dense VO; sparse ignores it)
 //   out  mav/localization/pose    mav_dds_PoseWithCovariance Qos::State()
 // The stereo reader exists only while DDS input is enabled (Configure without
 // disable_dds_input): an unconfigured service is no subscriber, so a simulator waiting for its

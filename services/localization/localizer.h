@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
 
 #include "mav/common/stats.h"
@@ -110,6 +111,11 @@ class Localizer {
   // RESOURCE_EXHAUSTED when dropped itself (the queue holds only unary requests),
   // INVALID_ARGUMENT when malformed (counted as rejected), FAILED_PRECONDITION unconfigured.
   Status SubmitLive(StereoInput input);
+
+  // One gyro sample of the IMU topic (body frame, rad/s), from any thread: buffered (at most
+  // RigOdometry::kGyroHistory, the oldest dropped) and handed to the odometry on the worker
+  // before the next frame (dense VO: rotation prior and consistency check, dense_vo.h).
+  void AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_body);
   // Counts a live frame that was malformed before it could become a StereoInput (bad checksum).
   void CountRejected();
 
@@ -140,6 +146,11 @@ class Localizer {
   WorkQueue queue_;
   // Only touched on the worker thread.
   std::unique_ptr<localization::RigOdometry> odometry_;
+  struct GyroSample {
+    int64_t t_ns;
+    Eigen::Vector3d omega;
+  };
+  std::deque<GyroSample> pending_gyro_;  // guarded by mutex_
 
   mutable std::mutex mutex_;
   // Guarded by mutex_.

@@ -79,6 +79,8 @@ TEST(ProtosTest, TrackingStateNumbersMatchTheDdsEnum) {
             static_cast<int>(mav_dds_TRACKING_STATE_OK));
   EXPECT_EQ(static_cast<int>(mav::v1::TRACKING_STATE_LOST),
             static_cast<int>(mav_dds_TRACKING_STATE_LOST));
+  EXPECT_EQ(static_cast<int>(mav::v1::TRACKING_STATE_DEGRADED),
+            static_cast<int>(mav_dds_TRACKING_STATE_DEGRADED));
 }
 
 // The RPCs of docs/contracts.md: service -> {rpc name -> streaming shape}.

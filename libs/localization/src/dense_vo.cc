@@ -180,6 +180,15 @@ bool DenseVoOptions::IsValid(std::string* why) const {
   if (!(min_image_contrast >= 0)) return fail("min_image_contrast: must be >= 0");
   if (!(max_translation_per_frame_m > 0)) return fail("max_translation_per_frame_m: must be > 0");
   if (!(max_rotation_per_frame_deg > 0)) return fail("max_rotation_per_frame_deg: must be > 0");
+  if (!(max_gyro_rotation_error_deg > 0)) return fail("max_gyro_rotation_error_deg: must be > 0");
+  if (!(max_acceleration_mps2 >= 0)) return fail("max_acceleration_mps2: must be >= 0");
+  if (!(motion_check_floor_m > 0)) return fail("motion_check_floor_m: must be > 0");
+  if (!(min_support_fraction >= 0 && min_support_fraction <= 1)) {
+    return fail("min_support_fraction: must be in [0, 1]");
+  }
+  if (!(max_rms_growth > 1)) return fail("max_rms_growth: must be > 1");
+  if (max_degraded_frames < 0) return fail("max_degraded_frames: must be >= 0");
+  if (!(rotation_prior_weight >= 0)) return fail("rotation_prior_weight: must be >= 0");
   return true;
 }
 
@@ -196,8 +205,21 @@ struct DenseVo::Impl {
   bool has_keyframe = false;
   Keyframe keyframe;
   SE3 T_world_cam;
-  SE3 T_kf_prev;        // the previous frame in the keyframe
-  SE3 T_prev_cur_last;  // the last frame-to-frame motion (the velocity prior)
+  // The last OK frame: its pose in the keyframe and its stamp. DEGRADED frames do not move it, so
+  // the next frame is predicted and checked from the last measurement, not from a prediction.
+  SE3 T_kf_prev;
+  int64_t t_ok_ns = 0;
+  // Velocity (twist per second, SE3::Log order) measured between the last two OK frames.
+  geometry::Vector6d velocity = geometry::Vector6d::Zero();
+  bool velocity_valid = false;
+  // Gyro rotation from the last OK frame to the previous frame (identity when the previous frame
+  // was the OK one); invalid when a frame since came without a hint.
+  Eigen::Quaterniond R_ok_prev_gyro = Eigen::Quaterniond::Identity();
+  bool gyro_chain_valid = true;
+  double rms_mean = 0;   // running mean of the OK frames' RMS error (0 = none yet)
+  int degraded_run = 0;  // DEGRADED frames in a row
+  int ok_run = 0;        // OK frames in a row since the last reset (the velocity is checked
+                         // once two of them agree)
   double log_gain = 0, bias = 0;
   int64_t frames = 0;
   int64_t keyframes = 0;
@@ -207,6 +229,19 @@ struct DenseVo::Impl {
   std::vector<cv::Mat> right_pyramid;  // the same for the right image, keyframes only
   std::vector<float> residuals, valid, weights;
   JacobianMatrix weighted_jacobian;
+
+  // After a loss or a reset: no velocity, no degraded run, no residual history.
+  void ForgetMotion() {
+    T_kf_prev = SE3();
+    t_ok_ns = 0;
+    velocity.setZero();
+    velocity_valid = false;
+    R_ok_prev_gyro.setIdentity();
+    gyro_chain_valid = true;
+    degraded_run = 0;
+    ok_run = 0;
+    rms_mean = 0;
+  }
 
   void BuildPyramid(const cv::Mat& left) {
     pyramid.resize(options.num_levels);
@@ -615,12 +650,35 @@ struct DenseVo::Impl {
     int iterations = 0;
     int used = 0;
     double rms = 0;
+    // With a rotation prior: the angle between the rotation the pixels alone support and the
+    // prior [deg].
+    double vision_prior_angle_deg = 0;
   };
 
   // Coarse-to-fine Levenberg-Marquardt over (xi, a, b). T_cur_kf, log_gain, bias are updated
   // in place.
-  AlignStats Align(SE3* T_cur_kf, double* a, double* b) {
+  //
+  // With `rotation_prior` (the predicted rotation P of T_cur_kf, from the gyro) the cost gains
+  // 0.5 w |Log(R P^-1)|^2 in the units of the normal equations, w = rotation_prior_weight times
+  // the mean diagonal of the photometric rotation block at the start of the level: the pixels'
+  // errors are far from independent, so a prior weighted by the gyro's noise alone would be
+  // drowned by thousands of pixels. Under the update R <- R Exp(-phi) the prior's Jacobian is
+  // -P (to first order), so the normal equations gain w I on the rotation block.
+  AlignStats Align(SE3* T_cur_kf, double* a, double* b,
+                   const Eigen::Quaterniond* rotation_prior = nullptr) {
     AlignStats stats;
+    const bool use_prior = rotation_prior != nullptr && options.rotation_prior_weight > 0;
+    double prior_w = 0;  // w of the current level
+    auto prior_residual = [&](const SE3& T) -> Eigen::Vector3d {
+      return geometry::LogSO3(T.Rotation() * rotation_prior->conjugate());
+    };
+    // The prior's share of the mean robust cost (normalised per pixel by the residual scale,
+    // like WeightAndCost's) with `count` pixels.
+    auto prior_cost = [&](const SE3& T, int count, float sigma) {
+      if (!use_prior || count <= 0) return 0.0;
+      return 0.5 * prior_w * prior_residual(T).squaredNorm() /
+             (static_cast<double>(sigma) * sigma * count);
+    };
     const bool affine = options.estimate_affine_brightness;
     const int dims = affine ? 8 : 6;
     // Converged when the motion moves less than min_step and the brightness less than 1e-4 in
@@ -643,6 +701,8 @@ struct DenseVo::Impl {
       Matrix8d H;
       Vector8d g;
       double cost = WeightAndCost(rw, count, &H, &g, nullptr, level);
+      if (use_prior) prior_w = options.rotation_prior_weight * H.block<3, 3>(3, 3).trace() / 3.0;
+      cost += prior_cost(*T_cur_kf, count, rw.sigma);
       for (int it = 0; it < options.max_iterations_per_level; ++it) {
         ++stats.iterations;
         // Effective Jacobian = static Jacobian * D, D = diag(gain x 7, 1).
@@ -651,6 +711,11 @@ struct DenseVo::Impl {
         d[7] = 1.0;
         Matrix8d He = d.asDiagonal() * H * d.asDiagonal();
         Vector8d ge = d.asDiagonal() * g;
+        if (use_prior) {
+          const Eigen::Matrix3d P = rotation_prior->toRotationMatrix();
+          He.block<3, 3>(3, 3) += prior_w * Eigen::Matrix3d::Identity();
+          ge.segment<3>(3) -= prior_w * P.transpose() * prior_residual(*T_cur_kf);
+        }
         Eigen::MatrixXd A = He.topLeftCorner(dims, dims);
         A.diagonal() *= (1.0 + lambda);
         A.diagonal().array() += 1e-9;
@@ -665,7 +730,8 @@ struct DenseVo::Impl {
                      static_cast<float>(b_candidate));
         const double cost_candidate =
             count_candidate >= 8
-                ? WeightAndCost(rw, count_candidate, nullptr, nullptr, nullptr, level)
+                ? WeightAndCost(rw, count_candidate, nullptr, nullptr, nullptr, level) +
+                      prior_cost(T_candidate, count_candidate, rw.sigma)
                 : std::numeric_limits<double>::infinity();
         if (cost_candidate <= cost) {
           *T_cur_kf = T_candidate;
@@ -674,13 +740,32 @@ struct DenseVo::Impl {
           count = count_candidate;
           lambda = std::max(lambda * 0.5, 1e-7);
           rw.sigma = EstimateScale(count, rw.sigma);
-          cost = WeightAndCost(rw, count, &H, &g, nullptr, level);
+          cost = WeightAndCost(rw, count, &H, &g, nullptr, level) +
+                 prior_cost(*T_cur_kf, count, rw.sigma);
           if (small_step(delta)) break;
         } else {
           // Residual buffers now hold the rejected candidate; H, g still describe the
           // accepted state.
           lambda = std::max(lambda, 1e-4) * 10.0;
           if (lambda > 1e4 || small_step(delta)) break;
+        }
+      }
+      if (level == options.finest_level && use_prior) {
+        // Where the pixels alone would put the rotation: one Gauss-Newton step on the
+        // photometric normal equations without the prior, from the accepted state (a quadratic
+        // model; at the prior-constrained optimum the two gradients balance). The gyro check
+        // uses this, since the prior pulls the estimate itself to the gyro.
+        const double gain = std::exp(*a);
+        Vector8d d = Vector8d::Constant(gain);
+        d[7] = 1.0;
+        Eigen::MatrixXd A = (d.asDiagonal() * H * d.asDiagonal()).topLeftCorner(dims, dims);
+        A.diagonal().array() += 1e-9;
+        const Eigen::VectorXd delta = A.ldlt().solve(-(d.asDiagonal() * g).head(dims));
+        if (delta.allFinite()) {
+          const geometry::Vector6d xi = delta.head<6>();
+          const SE3 T_vision = *T_cur_kf * SE3::Exp(xi).Inverse();
+          stats.vision_prior_angle_deg =
+              geometry::AngleBetween(T_vision.Rotation(), *rotation_prior) * kRadToDeg;
         }
       }
       if (level == options.finest_level) {
@@ -753,8 +838,7 @@ void DenseVo::Reset() {
   s.has_keyframe = false;
   s.keyframe = Keyframe();
   s.T_world_cam = s.T_world_cam0;
-  s.T_kf_prev = SE3();
-  s.T_prev_cur_last = SE3();
+  s.ForgetMotion();
   s.log_gain = s.bias = 0;
   s.frames = 0;
   s.keyframes = 0;
@@ -767,7 +851,7 @@ int64_t DenseVo::frames_processed() const { return impl_->frames; }
 int64_t DenseVo::keyframes_created() const { return impl_->keyframes; }
 
 Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
-                                               const cv::Mat& right) {
+                                               const cv::Mat& right, const MotionHint* hint) {
   Impl& s = *impl_;
   MAV_RETURN_IF_ERROR(CheckImage("left", left, s.rig));
   MAV_RETURN_IF_ERROR(CheckImage("right", right, s.rig));
@@ -800,8 +884,7 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
       result.state = TrackingState::kLost;
       result.lost_reason = msg.str();
       s.has_keyframe = false;
-      s.T_kf_prev = SE3();
-      s.T_prev_cur_last = SE3();
+      s.ForgetMotion();
       return finish();
     }
   }
@@ -810,13 +893,13 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
     t0 = MonotonicNowNs();
     const std::string why = s.BuildKeyframe(left, right, s.T_world_cam);
     result.timing.keyframe_ms = MsSince(t0);
-    s.T_kf_prev = SE3();
-    s.T_prev_cur_last = SE3();
+    s.ForgetMotion();
     if (!why.empty()) {
       result.state = TrackingState::kLost;
       result.lost_reason = why;
       return finish();
     }
+    s.t_ok_ns = t_ns;
     result.reference_reset = true;
     result.new_keyframe = true;
     result.num_keyframe_pixels = s.keyframe.levels[o.finest_level].size();
@@ -824,12 +907,23 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
     return finish();
   }
 
-  // Constant-velocity prediction of the current frame in the keyframe.
-  const SE3 T_kf_pred = o.use_motion_prior ? s.T_kf_prev * s.T_prev_cur_last : s.T_kf_prev;
+  // Motion prediction since the last OK frame (the previous frame unless it was DEGRADED): the
+  // measured velocity over the interval (constant velocity), its rotation replaced by the gyro's
+  // when the hints cover the interval.
+  const double dt_s = t_ns > s.t_ok_ns ? 1e-9 * static_cast<double>(t_ns - s.t_ok_ns) : 0.0;
+  const SE3 T_ok_cv = s.velocity_valid ? SE3::Exp(s.velocity * dt_s) : SE3();
+  SE3 T_ok_pred = o.use_motion_prior ? T_ok_cv : SE3();
+  const bool gyro = hint != nullptr && s.gyro_chain_valid;
+  const Eigen::Quaterniond R_ok_gyro = gyro
+                                           ? Eigen::Quaterniond(s.R_ok_prev_gyro * hint->R_prev_cur)
+                                           : Eigen::Quaterniond::Identity();
+  if (gyro) T_ok_pred = SE3(R_ok_gyro, T_ok_pred.Translation());
+  const SE3 T_kf_pred = s.T_kf_prev * T_ok_pred;
   SE3 T_cur_kf = T_kf_pred.Inverse();
+  const Eigen::Quaterniond rotation_prior = T_cur_kf.Rotation();
   double a = s.log_gain, b = s.bias;
   t0 = MonotonicNowNs();
-  const Impl::AlignStats stats = s.Align(&T_cur_kf, &a, &b);
+  const Impl::AlignStats stats = s.Align(&T_cur_kf, &a, &b, gyro ? &rotation_prior : nullptr);
   result.timing.tracking_ms = MsSince(t0);
   result.iterations = stats.iterations;
   result.num_keyframe_pixels = s.keyframe.levels[o.finest_level].size();
@@ -841,7 +935,8 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
   // Failure checks.
   std::ostringstream lost;
   const SE3 T_kf_cur = T_cur_kf.Inverse();
-  const SE3 T_prev_cur = s.T_kf_prev.Inverse() * T_kf_cur;
+  const SE3 T_ok_cur = s.T_kf_prev.Inverse() * T_kf_cur;
+  const SE3 T_prev_cur = s.T_world_cam.Inverse() * (s.keyframe.T_world_kf * T_kf_cur);
   if (!IsFinite(T_cur_kf) || !std::isfinite(a) || !std::isfinite(b)) {
     lost << "alignment diverged (non-finite motion)";
   } else if (stats.used < o.min_pixels) {
@@ -859,6 +954,50 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
     lost << "implausible rotation of " << RotationDeg(T_prev_cur)
          << " deg in one frame (max_rotation_per_frame_deg " << o.max_rotation_per_frame_deg << ")";
   }
+
+  // Consistency check of a tracked frame against the prediction.
+  std::ostringstream inconsistent;
+  if (lost.str().empty()) {
+    if (gyro) {
+      // With the prior on, the estimate itself sits near the gyro; the check compares the
+      // rotation the pixels alone support.
+      result.gyro_rotation_error_deg =
+          o.rotation_prior_weight > 0
+              ? stats.vision_prior_angle_deg
+              : geometry::AngleBetween(T_ok_cur.Rotation(), R_ok_gyro) * kRadToDeg;
+    }
+    if (s.velocity_valid) {
+      result.prediction_error_m = (T_ok_cur.Translation() - T_ok_cv.Translation()).norm();
+    }
+    const double motion_bound =
+        0.5 * o.max_acceleration_mps2 * dt_s * dt_s + o.motion_check_floor_m;
+    const double rms_bound = std::max(8.0, o.max_rms_growth * s.rms_mean);
+    if (o.consistency_check) {
+      if (gyro && result.gyro_rotation_error_deg > o.max_gyro_rotation_error_deg) {
+        inconsistent << "rotation differs from the gyro's by " << result.gyro_rotation_error_deg
+                     << " deg (max_gyro_rotation_error_deg " << o.max_gyro_rotation_error_deg
+                     << ")";
+      } else if (s.velocity_valid && s.ok_run >= 2 && result.prediction_error_m > motion_bound) {
+        inconsistent << "translation is " << result.prediction_error_m
+                     << " m off the constant-velocity prediction (bound " << motion_bound
+                     << " m from max_acceleration_mps2 " << o.max_acceleration_mps2
+                     << " and motion_check_floor_m " << o.motion_check_floor_m << ")";
+      } else if (stats.used < o.min_support_fraction * result.num_keyframe_pixels) {
+        inconsistent << "only " << stats.used << " of " << result.num_keyframe_pixels
+                     << " keyframe pixels used (min_support_fraction " << o.min_support_fraction
+                     << ")";
+      } else if (s.rms_mean > 0 && stats.rms > rms_bound) {
+        inconsistent << "photometric RMS error " << stats.rms << " is above " << rms_bound
+                     << " (max_rms_growth " << o.max_rms_growth << " x the running mean "
+                     << s.rms_mean << ")";
+      }
+    }
+    if (!inconsistent.str().empty() && s.degraded_run >= o.max_degraded_frames) {
+      lost << "consistency check failed " << s.degraded_run + 1
+           << " frames in a row (max_degraded_frames " << o.max_degraded_frames
+           << "): " << inconsistent.str();
+    }
+  }
   if (!lost.str().empty()) {
     result.state = TrackingState::kLost;
     result.lost_reason = lost.str();
@@ -869,14 +1008,36 @@ Result<DenseFrameResult> DenseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left
     const std::string why = s.BuildKeyframe(left, right, s.T_world_cam);
     result.timing.keyframe_ms = MsSince(t0);
     result.new_keyframe = why.empty();
-    s.T_kf_prev = SE3();
-    s.T_prev_cur_last = SE3();
+    s.ForgetMotion();
+    if (result.new_keyframe) s.t_ok_ns = t_ns;
+    return finish();
+  }
+  if (!inconsistent.str().empty()) {
+    // DEGRADED: publish the prediction, keep the velocity, the brightness and the keyframe.
+    result.state = TrackingState::kDegraded;
+    result.lost_reason = inconsistent.str();
+    ++s.degraded_run;
+    const SE3 T_world_pred = s.keyframe.T_world_kf * T_kf_pred;
+    result.T_prev_cur = s.T_world_cam.Inverse() * T_world_pred;
+    s.T_world_cam = T_world_pred;
+    result.T_world_cam = s.T_world_cam;
+    s.gyro_chain_valid = gyro;
+    s.R_ok_prev_gyro = R_ok_gyro;
     return finish();
   }
 
   s.T_world_cam = s.keyframe.T_world_kf * T_kf_cur;
   s.T_kf_prev = T_kf_cur;
-  s.T_prev_cur_last = T_prev_cur;
+  if (dt_s > 0) {
+    s.velocity = T_ok_cur.Log() / dt_s;
+    s.velocity_valid = true;
+  }
+  s.t_ok_ns = t_ns;
+  s.R_ok_prev_gyro.setIdentity();
+  s.gyro_chain_valid = true;
+  s.degraded_run = 0;
+  ++s.ok_run;
+  s.rms_mean = s.rms_mean > 0 ? 0.9 * s.rms_mean + 0.1 * stats.rms : stats.rms;
   s.log_gain = a;
   s.bias = b;
   result.T_world_cam = s.T_world_cam;

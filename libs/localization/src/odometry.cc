@@ -49,7 +49,8 @@ class SparseOdometry final : public StereoOdometry {
  public:
   SparseOdometry(Method method, SparseVo vo) : method_(method), vo_(std::move(vo)) {}
 
-  Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right) override {
+  Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
+                                const MotionHint* /*hint: unused*/) override {
     MAV_ASSIGN_OR_RETURN(const VoFrameResult r, vo_.ProcessFrame(t_ns, left, right));
     OdometryFrame out;
     out.t_ns = r.t_ns;
@@ -78,8 +79,9 @@ class DenseOdometry final : public StereoOdometry {
  public:
   explicit DenseOdometry(DenseVo vo) : vo_(std::move(vo)) {}
 
-  Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right) override {
-    MAV_ASSIGN_OR_RETURN(const DenseFrameResult r, vo_.ProcessFrame(t_ns, left, right));
+  Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
+                                const MotionHint* hint) override {
+    MAV_ASSIGN_OR_RETURN(const DenseFrameResult r, vo_.ProcessFrame(t_ns, left, right, hint));
     OdometryFrame out;
     out.t_ns = r.t_ns;
     out.state = r.state;
@@ -90,6 +92,8 @@ class DenseOdometry final : public StereoOdometry {
     out.matches = r.num_keyframe_pixels;
     out.support = r.num_pixels_used;
     out.residual = r.rms_error;
+    out.prediction_error_m = r.prediction_error_m;
+    out.gyro_rotation_error_deg = r.gyro_rotation_error_deg;
     out.features_ms = r.timing.keyframe_ms;
     out.motion_ms = r.timing.pyramid_ms + r.timing.tracking_ms;
     out.runtime_ms = r.timing.total_ms;

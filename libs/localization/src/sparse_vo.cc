@@ -26,6 +26,8 @@ const char* TrackingStateName(TrackingState state) {
       return "OK";
     case TrackingState::kLost:
       return "LOST";
+    case TrackingState::kDegraded:
+      return "DEGRADED";
   }
   return "UNKNOWN";
 }

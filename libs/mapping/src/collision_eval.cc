@@ -44,7 +44,9 @@ double MatthewsCorrelation(int64_t tp, int64_t fn, int64_t tn, int64_t fp) {
 
 namespace {
 
-void BuildTable(const OccupancyGrid& grid, VoxelState state, std::vector<int32_t>* table) {
+// Prefix sums of the voxels for which counted(linear index) holds.
+template <typename Counted>
+void BuildTable(const OccupancyGrid& grid, Counted&& counted, std::vector<int32_t>* table) {
   const Eigen::Vector3i& n = grid.size();
   const int64_t sx = n.x() + 1, sy = n.y() + 1;
   table->assign(static_cast<size_t>(sx * sy * (n.z() + 1)), 0);
@@ -53,7 +55,7 @@ void BuildTable(const OccupancyGrid& grid, VoxelState state, std::vector<int32_t
     for (int j = 1; j <= n.y(); ++j) {
       int32_t row = 0;
       for (int i = 1; i <= n.x(); ++i) {
-        row += grid[grid.Linear(i - 1, j - 1, k - 1)] == state ? 1 : 0;
+        row += counted(grid.Linear(i - 1, j - 1, k - 1)) ? 1 : 0;
         // S(i,j,k) = row(i,j,k) + S(i,j-1,k) + S(i,j,k-1) - S(i,j-1,k-1), with row the running
         // sum along x: the 2D recurrence in (j, k) over per-row prefix sums.
         at(i, j, k) = row + at(i, j - 1, k) + at(i, j, k - 1) - at(i, j - 1, k - 1);
@@ -62,23 +64,30 @@ void BuildTable(const OccupancyGrid& grid, VoxelState state, std::vector<int32_t
   }
 }
 
-}  // namespace
-
-BoxQuery::BoxQuery(const OccupancyGrid& grid) : geometry_(grid.geometry()) {
-  BuildTable(grid, VoxelState::kOccupied, &occupied_);
-  BuildTable(grid, VoxelState::kUnknown, &unknown_);
-}
-
-int64_t BoxQuery::Sum(const std::vector<int32_t>& table, const Eigen::Vector3i& min,
-                      const Eigen::Vector3i& max) const {
-  const Eigen::Vector3i& n = geometry_.size;
-  const Eigen::Vector3i lo = min.cwiseMax(0).cwiseMin(n);
-  const Eigen::Vector3i hi = max.cwiseMax(lo).cwiseMin(n);
-  const int64_t sx = n.x() + 1, sy = n.y() + 1;
+// Count in the voxel box [min, max) (clamped to the grid of `size`) from a BuildTable table.
+int64_t TableSum(const std::vector<int32_t>& table, const Eigen::Vector3i& size,
+                 const Eigen::Vector3i& min, const Eigen::Vector3i& max) {
+  const Eigen::Vector3i lo = min.cwiseMax(0).cwiseMin(size);
+  const Eigen::Vector3i hi = max.cwiseMax(lo).cwiseMin(size);
+  const int64_t sx = size.x() + 1, sy = size.y() + 1;
   auto s = [&](int i, int j, int k) -> int64_t { return table[(k * sy + j) * sx + i]; };
   return s(hi.x(), hi.y(), hi.z()) - s(lo.x(), hi.y(), hi.z()) - s(hi.x(), lo.y(), hi.z()) -
          s(hi.x(), hi.y(), lo.z()) + s(lo.x(), lo.y(), hi.z()) + s(lo.x(), hi.y(), lo.z()) +
          s(hi.x(), lo.y(), lo.z()) - s(lo.x(), lo.y(), lo.z());
+}
+
+}  // namespace
+
+BoxQuery::BoxQuery(const OccupancyGrid& grid) : geometry_(grid.geometry()) {
+  BuildTable(
+      grid, [&](int64_t i) { return grid[i] == VoxelState::kOccupied; }, &occupied_);
+  BuildTable(
+      grid, [&](int64_t i) { return grid[i] == VoxelState::kUnknown; }, &unknown_);
+}
+
+int64_t BoxQuery::Sum(const std::vector<int32_t>& table, const Eigen::Vector3i& min,
+                      const Eigen::Vector3i& max) const {
+  return TableSum(table, geometry_.size, min, max);
 }
 
 int64_t BoxQuery::Occupied(const Eigen::Vector3i& min, const Eigen::Vector3i& max) const {
@@ -141,8 +150,25 @@ Result<CollisionOutcomes> EvaluateCollisions(const OccupancyGrid& truth,
                                    std::to_string(box.z()) +
                                    " voxels) does not fit in the evaluation region");
   }
+  if (options.observable != nullptr &&
+      static_cast<int64_t>(options.observable->size()) != truth.num_voxels()) {
+    return Status::InvalidArgument(
+        "CollisionEvalOptions.observable: " + std::to_string(options.observable->size()) +
+        " bytes for a truth grid of " + std::to_string(truth.num_voxels()) + " voxels");
+  }
   const BoxQuery truth_query(truth);
   const BoxQuery computed_query(computed);
+  // Truth-free voxels no camera could observe; a position covering one is not counted.
+  std::vector<int32_t> unobserved;
+  if (options.observable != nullptr) {
+    const std::vector<uint8_t>& seen = *options.observable;
+    BuildTable(
+        truth,
+        [&](int64_t i) {
+          return truth[i] == VoxelState::kFree && seen[static_cast<size_t>(i)] == 0;
+        },
+        &unobserved);
+  }
   CollisionOutcomes out;
   const int step = options.step_voxels;
   for (int k = lo.z(); k + box.z() <= hi.z(); k += step) {
@@ -150,6 +176,7 @@ Result<CollisionOutcomes> EvaluateCollisions(const OccupancyGrid& truth,
       for (int i = lo.x(); i + box.x() <= hi.x(); i += step) {
         const Eigen::Vector3i min(i, j, k);
         const Eigen::Vector3i max = min + box;
+        if (!unobserved.empty() && TableSum(unobserved, n, min, max) > 0) continue;
         const bool truth_hit =
             truth_query.Occupied(min, max) > 0 ||
             (options.truth_unknown_is_occupied && truth_query.Unknown(min, max) > 0);

@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 
 #include "mav/common/check.h"
+#include "voxel_traversal.h"
 
 namespace mav::mapping {
 
@@ -21,6 +22,14 @@ bool MeshToGridOptions::IsValid(std::string* why) const {
   }
   if (!(thick_stop_m >= 0.0) || !std::isfinite(thick_stop_m)) {
     if (why) *why = "thick_stop_m must be >= 0 [m]";
+    return false;
+  }
+  if (free_near_ray_voxels < -1 || free_near_ray_voxels > 8) {
+    if (why) *why = "free_near_ray_voxels must be in [-1, 8]";
+    return false;
+  }
+  if (occupied_margin_voxels < 0 || occupied_margin_voxels > 8) {
+    if (why) *why = "occupied_margin_voxels must be in [0, 8]";
     return false;
   }
   return true;
@@ -163,47 +172,21 @@ constexpr uint8_t kSeenThick = 2;  // crossed by the thick part of a line of sig
 void TraceRay(const Eigen::Vector3d& from, const Eigen::Vector3d& to, bool thick,
               double thick_stop_m, const OccupancyGrid& grid, std::vector<uint8_t>* mask) {
   const GridGeometry& g = grid.geometry();
-  const Eigen::Vector3d d = to - from;
-  const double length = d.norm();
+  const double length = (to - from).norm();
   if (!(length > g.resolution)) return;
   const double t_end = 1.0 - g.resolution / length;
-  Eigen::Vector3i idx = grid.IndexOf(from);
-  const Eigen::Vector3i last = grid.IndexOf(to);
-  Eigen::Vector3i step;
-  Eigen::Vector3d t_max, t_delta;
-  for (int a = 0; a < 3; ++a) {
-    if (d[a] > 0) {
-      step[a] = 1;
-      t_max[a] = (g.origin[a] + (idx[a] + 1) * g.resolution - from[a]) / d[a];
-      t_delta[a] = g.resolution / d[a];
-    } else if (d[a] < 0) {
-      step[a] = -1;
-      t_max[a] = (g.origin[a] + idx[a] * g.resolution - from[a]) / d[a];
-      t_delta[a] = -g.resolution / d[a];
-    } else {
-      step[a] = 0;
-      t_max[a] = std::numeric_limits<double>::infinity();
-      t_delta[a] = std::numeric_limits<double>::infinity();
-    }
-  }
   const double t_thick = thick ? 1.0 - thick_stop_m / length : -1.0;
-  double t = 0.0;
-  while (t < t_end && idx != last) {
+  internal::TraverseVoxels(g, from, to, t_end, [&](const Eigen::Vector3i& idx, double t) {
     if (grid.InBounds(idx)) {
       (*mask)[grid.Linear(idx.x(), idx.y(), idx.z())] |= t < t_thick ? kSeenThick : kSeen;
     }
-    int a = 0;
-    if (t_max[1] < t_max[a]) a = 1;
-    if (t_max[2] < t_max[a]) a = 2;
-    t = t_max[a];
-    t_max[a] += t_delta[a];
-    idx[a] += step[a];
-  }
+    return true;
+  });
 }
 
 // Spreads the kSeenThick bit of `mask` to every voxel within `radius` voxels (Chebyshev
 // distance): a box dilation, done as three separable 1D passes.
-void DilateThick(const Eigen::Vector3i& size, int radius, std::vector<uint8_t>* mask) {
+void DilateBit(const Eigen::Vector3i& size, int radius, uint8_t bit, std::vector<uint8_t>* mask) {
   const int64_t stride[3] = {1, size.x(), static_cast<int64_t>(size.x()) * size.y()};
   std::vector<uint8_t> line;
   for (int axis = 0; axis < 3; ++axis) {
@@ -216,16 +199,15 @@ void DilateThick(const Eigen::Vector3i& size, int radius, std::vector<uint8_t>* 
         // A voxel gets the bit if a voxel of the line within `radius` had it before this pass:
         // one sweep for the nearest one ahead, one for the nearest one behind.
         int run_end = -1;  // nearest index >= i that had the bit
-        for (int i = 0; i < n; ++i) line[i] = ((*mask)[base + i * stride[axis]] & kSeenThick) != 0;
+        for (int i = 0; i < n; ++i) line[i] = ((*mask)[base + i * stride[axis]] & bit) != 0;
         for (int i = n - 1; i >= 0; --i) {
           if (line[i]) run_end = i;
-          if (run_end >= 0 && run_end - i <= radius) (*mask)[base + i * stride[axis]] |= kSeenThick;
+          if (run_end >= 0 && run_end - i <= radius) (*mask)[base + i * stride[axis]] |= bit;
         }
         int run_start = -1;  // nearest index <= i that had the bit
         for (int i = 0; i < n; ++i) {
           if (line[i]) run_start = i;
-          if (run_start >= 0 && i - run_start <= radius)
-            (*mask)[base + i * stride[axis]] |= kSeenThick;
+          if (run_start >= 0 && i - run_start <= radius) (*mask)[base + i * stride[axis]] |= bit;
         }
       }
     }
@@ -296,9 +278,26 @@ Result<OccupancyGrid> MeshToOccupancy(const MeshingResult& meshing,
     } else {
       trace(0, points.size(), &seen);
     }
-    if (thick) DilateThick(geometry.size, options.carve_radius_voxels, &seen);
+    if (options.free_near_ray_voxels >= 0) {
+      // Free space of the outside cells only near a line of sight: a cell that spans an
+      // unsampled thin structure (a pipe, a shelf board) is crossed by rays beside it, but no
+      // ray passes through the structure itself.
+      constexpr uint8_t kNearRay = 4;
+      for (uint8_t& m : seen) {
+        if (m != 0) m |= kNearRay;
+      }
+      DilateBit(geometry.size, options.free_near_ray_voxels, kNearRay, &seen);
+      for (int64_t i = 0; i < grid.num_voxels(); ++i) {
+        if (grid[i] == VoxelState::kFree && (seen[i] & kNearRay) == 0) {
+          grid[i] = VoxelState::kUnknown;
+        }
+      }
+    }
+    if (thick) DilateBit(geometry.size, options.carve_radius_voxels, kSeenThick, &seen);
     for (int64_t i = 0; i < grid.num_voxels(); ++i) {
-      if (seen[i] != 0 && grid[i] == VoxelState::kUnknown) grid[i] = VoxelState::kFree;
+      if ((seen[i] & (kSeen | kSeenThick)) != 0 && grid[i] == VoxelState::kUnknown) {
+        grid[i] = VoxelState::kFree;
+      }
     }
   }
   const double h = 0.5 * geometry.resolution * (1.0 + 1e-9);
@@ -320,6 +319,17 @@ Result<OccupancyGrid> MeshToOccupancy(const MeshingResult& meshing,
           if (TriangleTouchesCube(grid.CenterOf({i, j, k}), h, a, b, c)) s = VoxelState::kOccupied;
         }
       }
+    }
+  }
+  if (options.occupied_margin_voxels > 0) {
+    // Safety margin: free voxels within the margin of an occupied one become occupied.
+    std::vector<uint8_t> occupied(static_cast<size_t>(grid.num_voxels()), 0);
+    for (int64_t i = 0; i < grid.num_voxels(); ++i) {
+      if (grid[i] == VoxelState::kOccupied) occupied[i] = 1;
+    }
+    DilateBit(geometry.size, options.occupied_margin_voxels, 1, &occupied);
+    for (int64_t i = 0; i < grid.num_voxels(); ++i) {
+      if (occupied[i] != 0 && grid[i] == VoxelState::kFree) grid[i] = VoxelState::kOccupied;
     }
   }
   return grid;

@@ -214,7 +214,8 @@ Result<MethodMap> MappingPipeline::Build(MappingMethod method, const GridGeometr
     stage = MonotonicNowNs();
     // Free space from every line of sight: to the rejected single-view points too, and to the
     // verified stereo matches that became no point.
-    const std::vector<MapPoint> sight_points = sparse.SightPoints();
+    const std::vector<MapPoint> sight_points =
+        impl_->options.extra_lines_of_sight ? sparse.SightPoints() : sparse.AllPoints();
     for (const MapPoint& p : sight_points) {
       out.lines_of_sight += static_cast<int64_t>(p.keyframes.size());
     }

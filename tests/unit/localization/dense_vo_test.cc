@@ -2,7 +2,10 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <random>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -465,6 +468,23 @@ TEST(DenseVoTest, InvalidOptionsAndRigAreRejected) {
   o.finest_level = 4;
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("finest_level"), std::string::npos);
+  // The consistency check's options.
+  const std::vector<std::pair<const char*, std::function<void(DenseVoOptions*)>>> check_fields = {
+      {"max_gyro_rotation_error_deg",
+       [](DenseVoOptions* x) { x->max_gyro_rotation_error_deg = 0; }},
+      {"max_acceleration_mps2", [](DenseVoOptions* x) { x->max_acceleration_mps2 = -1; }},
+      {"motion_check_floor_m", [](DenseVoOptions* x) { x->motion_check_floor_m = 0; }},
+      {"min_support_fraction", [](DenseVoOptions* x) { x->min_support_fraction = 1.5; }},
+      {"max_rms_growth", [](DenseVoOptions* x) { x->max_rms_growth = 1.0; }},
+      {"max_degraded_frames", [](DenseVoOptions* x) { x->max_degraded_frames = -1; }},
+      {"rotation_prior_weight", [](DenseVoOptions* x) { x->rotation_prior_weight = std::nan(""); }},
+  };
+  for (const auto& [field, spoil] : check_fields) {
+    o = DenseVoOptions();
+    spoil(&o);
+    EXPECT_FALSE(o.IsValid(&why)) << field;
+    EXPECT_NE(why.find(field), std::string::npos) << why;
+  }
   o = DenseVoOptions();
   o.block_size = 8;
   auto bad = DenseVo::Create(TestRig(), o);

@@ -1,13 +1,17 @@
 // End-to-end: the sparse VO on a short rectified room-easy sequence from the simulator, scored
-// with the KITTI-style relative translational error (Geiger et al., CVPR 2012) as in the paper.
+// with the KITTI-style relative translational error (Geiger et al., CVPR 2012) as in the paper;
+// the dense VO's per-frame consistency check on the same sequence, with the simulator's gyro.
 
 #include <algorithm>
 #include <cstdio>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include "mav/localization/rig_odometry.h"
 #include "mav/localization/sparse_vo.h"
 #include "mav/sim/scenario.h"
 
@@ -45,7 +49,11 @@ double RelativeTranslationErrorPercent(const std::vector<SE3>& truth, const std:
 struct SimRun {
   std::vector<SE3> truth;  // T_world_cam (rectified left camera) from the simulator
   std::vector<cv::Mat> left, right;
+  std::vector<int64_t> t_ns;
   camera::RectifiedStereo rig;
+  camera::StereoCalibration calibration;
+  SE3 T_world_body0;
+  std::vector<dataset::ImuSample> imu;  // noisy, 200 Hz
 };
 
 const SimRun& GetRun() {
@@ -58,6 +66,9 @@ const SimRun& GetRun() {
     auto scenario = sim::Scenario::Create(options);
     MAV_CHECK(scenario.ok()) << scenario.status().ToString();
     const camera::StereoCalibration& calib = scenario->calibration();
+    r->calibration = calib;
+    r->T_world_body0 = scenario->StateAt(scenario->FrameTimeNs(0)).T_world_body;
+    r->imu = scenario->ImuSamples();
     r->rig.width = calib.cam0.width;
     r->rig.height = calib.cam0.height;
     r->rig.fx = calib.cam0.fx;
@@ -70,6 +81,7 @@ const SimRun& GetRun() {
       scenario->RenderStereo(k, &l, &rr);
       r->left.push_back(l);
       r->right.push_back(rr);
+      r->t_ns.push_back(scenario->FrameTimeNs(k));
       r->truth.push_back(scenario->StateAt(scenario->FrameTimeNs(k)).T_world_body *
                          calib.T_body_cam0);
     }
@@ -125,6 +137,140 @@ INSTANTIATE_TEST_SUITE_P(Modes, SimSequenceTest,
                          [](const ::testing::TestParamInfo<SparseVoMode>& info) {
                            return std::string(SparseVoModeName(info.param));
                          });
+
+// --- Dense VO: the per-frame consistency check (dense_vo.h) ---
+
+struct DenseRun {
+  std::vector<ReportedState> states;
+  std::vector<std::string> reasons;
+  std::vector<double> gyro_error_deg, prediction_error_m;
+  std::vector<SE3> poses;  // T_world_cam0
+  int gyro_frames = 0;
+};
+
+// The sequence through RigOdometry (the service's and mav-eval's path) with the simulator's noisy
+// gyro; frames whose index is a key of `substitute` get the images of the mapped frame instead
+// (a stale frame from a stuck driver or buffer), with their own stamp.
+DenseRun RunDense(bool use_gyro, bool consistency_check,
+                  const std::vector<std::pair<size_t, size_t>>& substitute = {},
+                  int64_t gyro_gap_begin_ns = 0, int64_t gyro_gap_end_ns = 0) {
+  const SimRun& run = GetRun();
+  RigOdometryOptions options;
+  options.method = Method::kDense;
+  options.calibration = run.calibration;
+  options.calibration_rectified = true;
+  options.output_frame = OutputFrame::kCam0;
+  options.T_world_body0 = run.T_world_body0;
+  options.use_gyro = use_gyro;
+  options.odometry.dense.consistency_check = consistency_check;
+  auto odometry = RigOdometry::Create(options);
+  MAV_CHECK(odometry.ok()) << odometry.status().ToString();
+  DenseRun out;
+  size_t next_imu = 0;
+  for (size_t k = 0; k < run.left.size(); ++k) {
+    for (; next_imu < run.imu.size() && run.imu[next_imu].t_ns <= run.t_ns[k]; ++next_imu) {
+      const int64_t t = run.imu[next_imu].t_ns;
+      if (t >= gyro_gap_begin_ns && t < gyro_gap_end_ns) continue;  // samples lost
+      (*odometry)->AddGyro(t, run.imu[next_imu].gyro);
+    }
+    size_t image = k;
+    for (const auto& [at, from] : substitute) {
+      if (at == k) image = from;
+    }
+    auto pose = (*odometry)->Process(run.t_ns[k], run.left[image], run.right[image], true);
+    MAV_CHECK(pose.ok()) << pose.status().ToString();
+    out.states.push_back(pose->state);
+    out.reasons.push_back(pose->lost_reason);
+    out.gyro_error_deg.push_back(pose->gyro_rotation_error_deg);
+    out.prediction_error_m.push_back(pose->prediction_error_m);
+    out.poses.push_back(pose->T_world_out);
+    out.gyro_frames += pose->gyro_used ? 1 : 0;
+  }
+  return out;
+}
+
+double PositionError(const DenseRun& r, size_t k) {
+  return (r.poses[k].Translation() - GetRun().truth[k].Translation()).norm();
+}
+
+int Count(const DenseRun& r, ReportedState state) {
+  return static_cast<int>(std::count(r.states.begin(), r.states.end(), state));
+}
+
+TEST(DenseConsistencyTest, CleanSequenceFlagsNoFrame) {
+  for (bool gyro : {true, false}) {
+    const DenseRun r = RunDense(gyro, true);
+    const SimRun& run = GetRun();
+    EXPECT_EQ(Count(r, ReportedState::kDegraded), 0) << "gyro " << gyro;
+    // The check's margins on this sequence.
+    std::printf("[ dense, gyro %d ] largest gyro disagreement %.3f deg, prediction error %.4f m\n",
+                gyro, *std::max_element(r.gyro_error_deg.begin(), r.gyro_error_deg.end()),
+                *std::max_element(r.prediction_error_m.begin(), r.prediction_error_m.end()));
+    EXPECT_EQ(Count(r, ReportedState::kLost), 0) << "gyro " << gyro;
+    EXPECT_EQ(r.gyro_frames, gyro ? static_cast<int>(run.left.size()) - 1 : 0);
+    int segments = 0;
+    const double err = RelativeTranslationErrorPercent(run.truth, r.poses, {1, 2, 5}, &segments);
+    std::printf("[ dense, gyro %d ] room-easy %zu frames: relative error %.2f %%\n", gyro,
+                run.left.size(), err);
+    EXPECT_LT(err, 2.0) << "gyro " << gyro;
+  }
+}
+
+// Gyro samples missing for 0.5 s: the frames whose interval the samples no longer cover (gaps
+// over 20 ms) run vision only, and nothing else changes.
+TEST(DenseConsistencyTest, GyroGapFallsBackToVisionOnly) {
+  const SimRun& run = GetRun();
+  const DenseRun r = RunDense(true, true, {}, run.t_ns[50], run.t_ns[60]);
+  // Frames 51..60 span intervals with missing samples (frame 60's starts at the gap's last
+  // sample time); frame 61's interval starts at frame 60, where samples resume.
+  EXPECT_EQ(r.gyro_frames, static_cast<int>(run.left.size()) - 1 - 10);
+  EXPECT_EQ(Count(r, ReportedState::kDegraded), 0);
+  EXPECT_EQ(Count(r, ReportedState::kLost), 0);
+}
+
+// A stale frame: the images of frame 76 arrive again as frame 80. Unchecked, the alignment
+// succeeds and publishes the camera 4 frames (~8 cm) back; checked, the frame is DEGRADED, its
+// pose is the prediction, and tracking goes on from the last measurement.
+TEST(DenseConsistencyTest, StaleFrameIsDegradedInsteadOfAJump) {
+  const std::vector<std::pair<size_t, size_t>> stale = {{80, 76}};
+  const DenseRun unchecked = RunDense(true, false, stale);
+  EXPECT_EQ(unchecked.states[80], ReportedState::kOk);
+  EXPECT_GT(PositionError(unchecked, 80), 0.04) << "the provoked jump";
+  for (bool gyro : {true, false}) {
+    SCOPED_TRACE(gyro ? "with gyro" : "vision only");
+    const DenseRun r = RunDense(gyro, true, stale);
+    EXPECT_EQ(r.states[80], ReportedState::kDegraded);
+    EXPECT_FALSE(r.reasons[80].empty());
+    EXPECT_LT(PositionError(r, 80), 0.01) << r.reasons[80];
+    EXPECT_EQ(Count(r, ReportedState::kDegraded), 1);
+    EXPECT_EQ(Count(r, ReportedState::kLost), 0);
+    // Back on the measurement right after, and no lasting damage.
+    EXPECT_EQ(r.states[81], ReportedState::kOk);
+    EXPECT_LT(PositionError(r, 81), PositionError(r, 79) + 0.005);
+    EXPECT_LT(PositionError(r, r.poses.size() - 1), 0.05);
+  }
+}
+
+// A replayed stream: from frame 80 on the images are those of 20 frames (~0.3 m) earlier, each
+// consistent with the one before, so only the prediction from the last OK frame sees the jump.
+// Every replayed frame is DEGRADED with the predicted pose until max_degraded_frames (5), then the
+// tracker gives up (LOST, re-initialisation) instead of predicting forever.
+TEST(DenseConsistencyTest, ReplayedStreamIsDegradedThenLost) {
+  std::vector<std::pair<size_t, size_t>> replay;
+  for (size_t k = 80; k < 90; ++k) replay.push_back({k, k - 20});
+  for (bool gyro : {true, false}) {
+    SCOPED_TRACE(gyro ? "with gyro" : "vision only");
+    const DenseRun r = RunDense(gyro, true, replay);
+    const int max_degraded = DenseVoOptions().max_degraded_frames;
+    for (int i = 0; i < max_degraded; ++i) {
+      EXPECT_EQ(r.states[80 + i], ReportedState::kDegraded) << "frame " << 80 + i;
+      EXPECT_LT(PositionError(r, 80 + i), 0.01) << "frame " << 80 + i;
+    }
+    EXPECT_EQ(r.states[80 + max_degraded], ReportedState::kLost);
+    EXPECT_NE(r.reasons[80 + max_degraded].find("max_degraded_frames"), std::string::npos)
+        << r.reasons[80 + max_degraded];
+  }
+}
 
 }  // namespace
 }  // namespace mav::localization

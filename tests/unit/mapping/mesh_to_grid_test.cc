@@ -1,9 +1,13 @@
 #include "mav/mapping/mesh_to_grid.h"
 
+#include <functional>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "mav/common/check.h"
 
 namespace mav::mapping {
 namespace {
@@ -127,6 +131,121 @@ TEST(MeshToOccupancyTest, ThickLinesOfSight) {
   const auto bad = MeshToOccupancy(m, points, keyframes, g, options);
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.status().message().find("carve_radius_voxels"), std::string::npos);
+}
+
+// A large outside tetrahedron (free space) with a small inside one in it, and one line of sight.
+struct FreeCellScene {
+  MeshingResult meshing;
+  GridGeometry geometry;
+  std::vector<MapPoint> points;
+  std::vector<KeyframeView> keyframes;
+
+  FreeCellScene() {
+    meshing.points = {{0, 0, 0},       {2, 0, 0},       {0, 2, 0},       {0, 0, 2},
+                      {0.3, 0.3, 0.3}, {0.6, 0.3, 0.3}, {0.3, 0.6, 0.3}, {0.3, 0.3, 0.6}};
+    Tetrahedron outside;
+    outside.vertices = {0, 1, 2, 3};
+    outside.inside = false;
+    Tetrahedron inside;
+    inside.vertices = {4, 5, 6, 7};
+    inside.inside = true;
+    meshing.tetrahedra = {outside, inside};
+    geometry.origin = Eigen::Vector3d(-0.1, -0.1, -0.1);
+    geometry.resolution = 0.1;
+    geometry.size = Eigen::Vector3i(22, 22, 22);
+    points.resize(1);
+    points[0].p_world = Eigen::Vector3d(1.2, 0.15, 0.15);
+    points[0].keyframes = {1};
+    keyframes.resize(1);
+    keyframes[0].id = 1;
+    keyframes[0].center_world = Eigen::Vector3d(0.05, 0.15, 0.15);
+  }
+  OccupancyGrid Run(const MeshToGridOptions& options) const {
+    auto grid = MeshToOccupancy(meshing, points, keyframes, geometry, options);
+    MAV_CHECK(grid.ok()) << grid.status().ToString();
+    return *std::move(grid);
+  }
+};
+
+bool WithinChebyshev(const OccupancyGrid& grid, const Eigen::Vector3i& idx, int r,
+                     const std::function<bool(const Eigen::Vector3i&)>& pred) {
+  for (int dk = -r; dk <= r; ++dk)
+    for (int dj = -r; dj <= r; ++dj)
+      for (int di = -r; di <= r; ++di) {
+        const Eigen::Vector3i n = idx + Eigen::Vector3i(di, dj, dk);
+        if (grid.InBounds(n) && pred(n)) return true;
+      }
+  return false;
+}
+
+TEST(MeshToOccupancyTest, SafetyMarginOccupiesFreeVoxelsNextToOccupiedOnes) {
+  const FreeCellScene scene;
+  const OccupancyGrid plain = scene.Run({});
+  ASSERT_GT(plain.Count(VoxelState::kOccupied), 0);
+  for (int margin : {1, 2}) {
+    SCOPED_TRACE("margin " + std::to_string(margin));
+    MeshToGridOptions options;
+    options.occupied_margin_voxels = margin;
+    const OccupancyGrid grid = scene.Run(options);
+    int64_t grown = 0;
+    for (int k = 0; k < 22; ++k)
+      for (int j = 0; j < 22; ++j)
+        for (int i = 0; i < 22; ++i) {
+          const Eigen::Vector3i idx(i, j, k);
+          VoxelState expected = plain.at(idx);
+          if (expected == VoxelState::kFree &&
+              WithinChebyshev(plain, idx, margin, [&](const Eigen::Vector3i& n) {
+                return plain.at(n) == VoxelState::kOccupied;
+              })) {
+            expected = VoxelState::kOccupied;
+            ++grown;
+          }
+          ASSERT_EQ(grid.at(idx), expected) << i << " " << j << " " << k;
+        }
+    EXPECT_GT(grown, 0);
+  }
+  MeshToGridOptions bad;
+  bad.occupied_margin_voxels = 9;
+  auto r = MeshToOccupancy(scene.meshing, scene.points, scene.keyframes, scene.geometry, bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("occupied_margin_voxels"), std::string::npos);
+}
+
+TEST(MeshToOccupancyTest, FreeCellsOnlyNearALineOfSight) {
+  const FreeCellScene scene;
+  const OccupancyGrid plain = scene.Run({});
+  FreeCellScene ray_only = scene;
+  ray_only.meshing.tetrahedra.clear();
+  const OccupancyGrid ray = ray_only.Run({});  // free = the line of sight's voxels
+  ASSERT_GT(ray.Count(VoxelState::kFree), 5);
+  for (int r : {0, 1, 3}) {
+    SCOPED_TRACE("radius " + std::to_string(r));
+    MeshToGridOptions options;
+    options.free_near_ray_voxels = r;
+    const OccupancyGrid grid = scene.Run(options);
+    int64_t dropped = 0;
+    for (int k = 0; k < 22; ++k)
+      for (int j = 0; j < 22; ++j)
+        for (int i = 0; i < 22; ++i) {
+          const Eigen::Vector3i idx(i, j, k);
+          VoxelState expected = plain.at(idx);
+          const bool on_ray = ray.at(idx) == VoxelState::kFree;
+          if (expected == VoxelState::kFree && !on_ray &&
+              !WithinChebyshev(plain, idx, r, [&](const Eigen::Vector3i& n) {
+                return ray.at(n) == VoxelState::kFree;
+              })) {
+            expected = VoxelState::kUnknown;
+            ++dropped;
+          }
+          ASSERT_EQ(grid.at(idx), expected) << i << " " << j << " " << k;
+        }
+    EXPECT_GT(dropped, 0);
+  }
+  MeshToGridOptions bad;
+  bad.free_near_ray_voxels = -2;
+  auto r = MeshToOccupancy(scene.meshing, scene.points, scene.keyframes, scene.geometry, bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("free_near_ray_voxels"), std::string::npos);
 }
 
 TEST(MeshToOccupancyTest, BadInput) {

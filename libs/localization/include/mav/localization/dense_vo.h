@@ -36,6 +36,24 @@
 // tracker re-initialises: the lost pair itself becomes the keyframe when it can, otherwise the
 // next usable pair does (reference_reset).
 //
+// Per-frame consistency check (after a tracked frame passes the LOST tests): the estimated motion
+// since the previous frame is compared with what the frame before predicts, and a frame that
+// fails is DEGRADED instead of publishing a jump:
+//   * gyro: when the caller passes the rotation integrated from the gyro (MotionHint), the
+//     estimated rotation must agree within max_gyro_rotation_error_deg;
+//   * velocity: the translation must stay within max_acceleration_mps2 * dt^2 +
+//     motion_check_floor_m of the constant-velocity prediction (the previous frame's motion, with
+//     the gyro rotation when given);
+//   * support: at least min_support_fraction of the keyframe's pixels must be used;
+//   * photometric residual: at most max_rms_growth times the running mean of the OK frames'.
+// A DEGRADED frame reports the prediction as its pose (the velocity is kept, the keyframe too),
+// and max_degraded_frames in a row make the next one LOST (re-initialisation).
+// With a gyro rotation the alignment also carries a rotation prior (rotation_prior_weight):
+// the photometric error alone confuses a small sideways translation with a small yaw on scenes
+// whose depth varies little, and the gyro resolves it (as in direct visual-inertial odometry,
+// e.g. Usenko, Engel, Stueckler, Cremers, "Direct visual-inertial odometry with stereo cameras",
+// ICRA 2016, where the IMU enters the photometric optimisation).
+//
 // Runs on the calling thread (cv::StereoBM may use OpenCV's own thread pool unless the
 // application calls cv::setNumThreads). Not thread-safe: one DenseVo per stream.
 //
@@ -146,6 +164,27 @@ struct DenseVoOptions {
   double max_translation_per_frame_m = 1.0;  // 20 m/s at 20 Hz
   double max_rotation_per_frame_deg = 30.0;
 
+  // --- Per-frame consistency check (DEGRADED; see the file comment) ---
+  bool consistency_check = true;
+  // Estimated rotation since the previous frame vs the gyro's (when given), degrees.
+  double max_gyro_rotation_error_deg = 0.5;
+  // Translation since the last OK frame vs the constant-velocity prediction: the bound is
+  // 0.5 max_acceleration_mps2 dt^2 + motion_check_floor_m (dt from the stamps). The room presets'
+  // trajectories deviate from constant velocity by up to 0.75 / 2.8 / 6.9 mm per 50 ms frame
+  // (easy / medium / hard).
+  double max_acceleration_mps2 = 6.0;
+  double motion_check_floor_m = 0.004;
+  // Pixels used / keyframe pixels.
+  double min_support_fraction = 0.2;
+  // RMS photometric error vs the running mean over OK frames (and at least 8 grey levels).
+  double max_rms_growth = 2.5;
+  // This many DEGRADED frames in a row make the next inconsistent frame LOST.
+  int max_degraded_frames = 5;
+  // Weight of the gyro rotation prior in the alignment, relative to the photometric information
+  // on the rotation (1 = as much as all pixels together; 0 = no prior, the gyro only predicts and
+  // checks).
+  double rotation_prior_weight = 1.0;
+
   bool IsValid(std::string* why) const;
 };
 
@@ -162,7 +201,7 @@ struct DenseFrameResult {
   int64_t t_ns = 0;
   int64_t frame_index = 0;  // 0 for the first pair after construction/Reset
   TrackingState state = TrackingState::kOk;
-  std::string lost_reason;  // empty when state == kOk
+  std::string lost_reason;  // why LOST or DEGRADED; empty when state == kOk
 
   // Pose of the rectified left camera in the world frame (the initial pose given to Create, by
   // default the first frame's camera). Always finite: a lost frame keeps the last pose.
@@ -182,6 +221,11 @@ struct DenseFrameResult {
   double rms_error = 0;         // robustly weighted RMS photometric error, grey levels
   double brightness_gain = 1;   // estimated exp(a)
   double brightness_bias = 0;   // estimated b, grey levels
+  // Consistency check figures of the estimate (0 when not computed): distance of the estimated
+  // translation from the constant-velocity prediction [m], and angle between the estimated and
+  // the gyro's rotation [deg].
+  double prediction_error_m = 0;
+  double gyro_rotation_error_deg = 0;
   DenseTiming timing;
 };
 
@@ -195,8 +239,10 @@ class DenseVo {
 
   // Processes one rectified pair taken at t_ns. Both images CV_8UC1, rig.width x rig.height.
   // Bad input is an InvalidArgument naming "left"/"right" and leaves the tracker unchanged;
-  // otherwise the result is OK or LOST (see above).
-  Result<DenseFrameResult> ProcessFrame(int64_t t_ns, const cv::Mat& left, const cv::Mat& right);
+  // otherwise the result is OK, DEGRADED or LOST (see above). `hint` (may be null) carries the
+  // gyro rotation since the previous pair.
+  Result<DenseFrameResult> ProcessFrame(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
+                                        const MotionHint* hint = nullptr);
 
   // Forgets the keyframe and the motion; the next pair starts again at the initial pose.
   void Reset();

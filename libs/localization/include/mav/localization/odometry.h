@@ -56,6 +56,10 @@ struct OdometryFrame {
   int support = 0;
   // Sparse: mean reprojection error (px). Dense: robust RMS photometric error (grey levels).
   double residual = 0;
+  // Dense: the consistency check's figures (DenseFrameResult::prediction_error_m,
+  // gyro_rotation_error_deg); 0 for the sparse methods.
+  double prediction_error_m = 0;
+  double gyro_rotation_error_deg = 0;
   // The method's own timing of the frame, ms: features (sparse: filters, NMS, descriptors;
   // dense: the keyframe depth map), matching (sparse only), motion (sparse: RANSAC + Gauss-Newton;
   // dense: pyramid + alignment) and the whole frame.
@@ -74,8 +78,9 @@ class StereoOdometry {
   virtual ~StereoOdometry() = default;
 
   // Rectified CV_8UC1 pair of the rig's size; bad input is InvalidArgument naming "left"/"right".
-  virtual Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left,
-                                        const cv::Mat& right) = 0;
+  // `hint` (may be null): the gyro rotation since the previous pair (dense only).
+  virtual Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
+                                        const MotionHint* hint = nullptr) = 0;
   virtual void Reset() = 0;
   virtual Method method() const = 0;
 };

@@ -26,12 +26,20 @@
 // come from the methods' ~1-2 % relative error on the room data sets (docs/services.md).
 //
 // Tracking state: kInitializing for the first frame and for a frame that re-initialises after a
-// loss (the VO's reference_reset), kLost with the VO's reason, else kOk.
+// loss (the VO's reference_reset), kLost with the VO's reason, kDegraded (dense: the frame failed
+// the consistency check, the pose is the prediction; covariance grows by kDegraded*Sigma*), else
+// kOk.
+//
+// Gyro (dense): samples given with AddGyro are integrated between consecutive frame stamps
+// (trapezoidal, minus the estimated bias) and passed as the camera's rotation hint. The bias is
+// estimated from the OK frames: an exponential average of the gyro-VO rotation disagreement.
 //
 // Not thread-safe: one owner (the service's worker, or mav-eval's loop).
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <optional>
 #include <string>
@@ -48,7 +56,7 @@ enum class OutputFrame { kBody, kCam0 };
 const char* OutputFrameName(OutputFrame frame);  // "body", "cam0"
 
 // Same numbers as mav.v1.TrackingState / mav::dds::TrackingState.
-enum class ReportedState { kUnspecified = 0, kInitializing = 1, kOk = 2, kLost = 3 };
+enum class ReportedState { kUnspecified = 0, kInitializing = 1, kOk = 2, kLost = 3, kDegraded = 4 };
 const char* ReportedStateName(ReportedState state);
 
 struct RigOdometryOptions {
@@ -60,6 +68,15 @@ struct RigOdometryOptions {
   bool calibration_rectified = false;
   geometry::SE3 T_world_body0;
   OutputFrame output_frame = OutputFrame::kBody;
+  // Dense (the sparse methods ignore the gyro): integrate the gyro samples given with AddGyro
+  // between frames into a rotation hint
+  // (the rotation prior and the consistency check of dense_vo.h). Without samples covering a
+  // frame interval the frame is processed vision-only.
+  bool use_gyro = true;
+  // Per-frame gain of the online gyro bias estimate (an exponential average of the gyro-VO
+  // rotation disagreement over the OK frames; 0 = the bias stays 0). It must be slow: whatever
+  // rotation bias the VO has, the estimate learns it too.
+  double gyro_bias_gain = 0.002;
 
   // Names the field: "calibration: ...", "sparse: ...", "dense: ...".
   bool IsValid(std::string* why) const;
@@ -84,10 +101,13 @@ struct RigPose {
   std::array<double, 36> covariance{};  // row-major, [dp (world), dtheta (child)]
   ReportedState state = ReportedState::kUnspecified;
   std::string lost_reason;
-  uint32_t matches = 0;   // sparse: circular matches; dense: keyframe pixels
-  uint32_t inliers = 0;   // sparse: RANSAC inliers; dense: pixels used
-  double residual = 0;    // sparse: mean reprojection error px; dense: RMS photometric error
-  bool keyframe = false;  // dense: this frame became a keyframe
+  uint32_t matches = 0;    // sparse: circular matches; dense: keyframe pixels
+  uint32_t inliers = 0;    // sparse: RANSAC inliers; dense: pixels used
+  double residual = 0;     // sparse: mean reprojection error px; dense: RMS photometric error
+  bool keyframe = false;   // dense: this frame became a keyframe
+  bool gyro_used = false;  // a gyro rotation since the previous frame was passed to the method
+  double prediction_error_m = 0;  // dense: the consistency check's figures (dense_vo.h)
+  double gyro_rotation_error_deg = 0;
   RigStageTiming timing;
 };
 
@@ -99,6 +119,12 @@ class RigOdometry {
   static constexpr double kRotationFloorRad = 0.0005;
   static constexpr double kLostPositionSigmaM = 0.25;
   static constexpr double kLostRotationSigmaRad = 0.05;
+  static constexpr double kDegradedPositionSigmaM = 0.02;
+  static constexpr double kDegradedRotationSigmaRad = 0.005;
+  // Gyro samples kept (10 s at 200 Hz) and the largest gap between samples an integration
+  // bridges.
+  static constexpr size_t kGyroHistory = 2000;
+  static constexpr int64_t kMaxGyroGapNs = 20'000'000;
 
   // Builds the rectifier and the odometry: InvalidArgument naming the field when invalid.
   static Result<std::unique_ptr<RigOdometry>> Create(const RigOdometryOptions& options);
@@ -117,13 +143,30 @@ class RigOdometry {
   // "left"/"right" for images of the wrong size or type (the trajectory is unchanged then).
   Result<RigPose> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right, bool rectified);
 
-  // Forgets the trajectory and the tracking state; the next frame starts at `T_world_body0` if
-  // given, else the configured initial pose.
+  // One gyro sample (body frame, rad/s), in time order (older or repeated stamps and non-finite
+  // rates are ignored); the last kGyroHistory are kept. Give the samples up to a frame's stamp
+  // before processing the frame.
+  void AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_body);
+  // The gyro bias the odometry estimated (rad/s, body frame), removed before integrating.
+  const Eigen::Vector3d& gyro_bias() const { return gyro_bias_; }
+
+  // Forgets the trajectory and the tracking state (and the gyro samples and bias); the next
+  // frame starts at `T_world_body0` if given, else the configured initial pose.
   void Reset(const std::optional<geometry::SE3>& T_world_body0 = std::nullopt);
 
  private:
   RigOdometry(RigOdometryOptions options, camera::RigRectification rectification,
               std::unique_ptr<StereoOdometry> odometry);
+
+  // R_body(t0)_body(t1) from the gyro samples, bias removed; nullopt if they do not cover it.
+  std::optional<Eigen::Quaterniond> IntegrateGyro(int64_t t0_ns, int64_t t1_ns) const;
+  void UpdateGyroBias(const Eigen::Quaterniond& R_body_gyro, const geometry::SE3& T_prev_cur_cam,
+                      double dt_s);
+
+  struct GyroSample {
+    int64_t t_ns;
+    Eigen::Vector3d omega;
+  };
 
   RigOdometryOptions options_;
   camera::RigRectification rectification_;
@@ -134,6 +177,11 @@ class RigOdometry {
   uint64_t next_index_ = 0;
   std::optional<geometry::SE3> T_world_out_previous_;
   Eigen::Matrix<double, 6, 1> variance_ = Eigen::Matrix<double, 6, 1>::Zero();
+  std::optional<int64_t> t_previous_ns_;
+  std::optional<geometry::SE3> T_world_cam_previous_;  // the method's camera pose, last frame
+  bool previous_ok_ = false;                           // the last frame was OK (measured)
+  std::deque<GyroSample> gyro_;
+  Eigen::Vector3d gyro_bias_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace mav::localization

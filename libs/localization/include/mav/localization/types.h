@@ -4,15 +4,28 @@
 #include <cstdint>
 #include <string>
 
+#include <Eigen/Geometry>
+
 #include "mav/geometry/se3.h"
 
 namespace mav::localization {
 
 // OK: the frame's motion was estimated. LOST: it was not (the reason says why); the pose is held
-// at the last good value and tracking restarts from the next stereo pair.
-enum class TrackingState { kOk, kLost };
+// at the last good value and tracking restarts from the next stereo pair. DEGRADED (dense VO):
+// the estimate failed the per-frame consistency check (the reason says which test), so the pose
+// is the motion prediction (gyro rotation when given, constant velocity), not the measurement;
+// tracking goes on against the same keyframe.
+enum class TrackingState { kOk, kLost, kDegraded };
 
-const char* TrackingStateName(TrackingState state);  // "OK", "LOST"
+const char* TrackingStateName(TrackingState state);  // "OK", "LOST", "DEGRADED"
+
+// What the caller knows about the motion since the previous pair from other sensors (dense VO
+// uses it; the sparse methods ignore it).
+struct MotionHint {
+  // Rotation of the rectified left camera from the previous pair to this one (R_prev_cur),
+  // integrated from the gyro with its bias removed.
+  Eigen::Quaterniond R_prev_cur = Eigen::Quaterniond::Identity();
+};
 
 // Wall-clock time spent in each stage of one frame, milliseconds.
 struct FrameTiming {

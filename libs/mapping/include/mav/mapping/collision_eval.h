@@ -37,6 +37,11 @@ struct CollisionEvalOptions {
   // Evaluation region in voxel indices [min, max) of the grids; empty (max <= min) = whole grid.
   Eigen::Vector3i region_min = Eigen::Vector3i::Zero();
   Eigen::Vector3i region_max = Eigen::Vector3i::Zero();
+  // Optional, not owned: one byte per truth voxel (x fastest), nonzero where some keyframe could
+  // observe it (ObservableVoxels, observability.h). When set, a box position counts only if
+  // every truth-free voxel it covers is observable: the evaluation "over the observable volume"
+  // of docs/mapping.md, which leaves out the free space no camera ever saw.
+  const std::vector<uint8_t>* observable = nullptr;
 
   bool IsValid(std::string* why) const;
 };
@@ -58,8 +63,9 @@ struct CollisionOutcomes {
 // MCC from the four counts; 0 when undefined (see the header comment).
 double MatthewsCorrelation(int64_t tp, int64_t fn, int64_t tn, int64_t fp);
 
-// INVALID_ARGUMENT when the grids' geometries differ, the options are invalid, or the box does not
-// fit in the region (the message names the field).
+// INVALID_ARGUMENT when the grids' geometries differ, the options are invalid, the observable
+// mask's size differs from the truth's, or the box does not fit in the region (the message names
+// the field).
 Result<CollisionOutcomes> EvaluateCollisions(const OccupancyGrid& truth,
                                              const OccupancyGrid& computed,
                                              const CollisionEvalOptions& options = {});

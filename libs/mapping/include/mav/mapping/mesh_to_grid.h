@@ -40,6 +40,13 @@ struct MeshToGridOptions {
   // Rule 4's ray radius [voxels, >= 0] and where its thick part ends [m before the point, >= 0].
   int carve_radius_voxels = 0;
   double thick_stop_m = 0.2;
+  // Voxels of outside cells are free only within this many voxels of a line of sight's centre
+  // line (-1: every voxel of a free cell, as rule 2 says; 0..8 otherwise). Needs
+  // carve_lines_of_sight.
+  int free_near_ray_voxels = -1;
+  // Rule 6, a safety margin [voxels, 0..8]: free voxels within this Chebyshev distance of an
+  // occupied voxel become occupied (a planner's clearance built into the map).
+  int occupied_margin_voxels = 0;
 
   bool IsValid(std::string* why) const;
 };

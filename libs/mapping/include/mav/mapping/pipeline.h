@@ -73,6 +73,10 @@ struct MappingPipelineOptions {
     return o;
   }();
   OctomapMapperOptions octomap;
+  // Free space also from the verified stereo matches that were not selected as points
+  // (SparsePointCloud::SightPoints()); false: only from the points (AllPoints(), the rejected
+  // single-view points included).
+  bool extra_lines_of_sight = true;
 
   // False with the offending field named in *why ("sparse.max_depth_m: ...", "run_sparse_mesh/
   // run_octomap: at least one method must run").

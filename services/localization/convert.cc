@@ -277,6 +277,8 @@ void ToProto(const LocalizerStatus& status, bool dds_input, v1::LocalizationStat
   out->set_frames_processed(status.frames_processed);
   out->set_frames_dropped(status.frames_dropped);
   out->set_frames_lost(status.frames_lost);
+  out->set_frames_degraded(status.frames_degraded);
+  out->set_gyro_samples(status.gyro_samples);
   out->set_frames_rejected(status.frames_rejected);
   out->set_fps(status.fps);
   if (status.last.has_value()) {

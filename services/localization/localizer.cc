@@ -62,6 +62,7 @@ void Localizer::ClearHistoryLocked() {
   last_accepted_t_ns_ = 0;
   trajectory_.clear();
   frames_processed_ = frames_dropped_ = frames_lost_ = frames_rejected_ = 0;
+  frames_degraded_ = gyro_samples_ = 0;
   poses_forgotten_ = keyframes_ = 0;
   done_wall_ns_.clear();
   processing_ms_.Clear();
@@ -228,6 +229,13 @@ Result<RigPose> Localizer::ProcessOnWorker(const StereoInput& input) {
     MAV_LOG(kWarning) << "frame " << input.t_ns << ": " << pose.status().ToString();
     return pose;
   }
+  // Logged when tracking enters LOST or DEGRADED (not for every frame of a long loss).
+  if (pose->state != last_logged_state_ &&
+      (pose->state == ReportedState::kDegraded || pose->state == ReportedState::kLost)) {
+    MAV_LOG(kInfo) << "frame " << input.t_ns << " " << localization::ReportedStateName(pose->state)
+                   << (pose->gyro_used ? " (gyro)" : " (no gyro)") << ": " << pose->lost_reason;
+  }
+  last_logged_state_ = pose->state;
   // Recorded before it is published, so that whoever receives the pose on DDS finds it in
   // GetStatus/GetTrajectory.
   {
@@ -240,6 +248,8 @@ Result<RigPose> Localizer::ProcessOnWorker(const StereoInput& input) {
     ++frames_processed_;
     processing_ms_.Add(pose->timing.total_ms);
     if (pose->state == ReportedState::kLost) ++frames_lost_;
+    if (pose->state == ReportedState::kDegraded) ++frames_degraded_;
+    gyro_samples_ += gyro.size();
     if (pose->keyframe) ++keyframes_;
     const int64_t now = MonotonicNowNs();
     done_wall_ns_.push_back(now);
@@ -272,6 +282,8 @@ LocalizerStatus Localizer::GetStatus() const {
   out.frames_processed = frames_processed_;
   out.frames_dropped = frames_dropped_;
   out.frames_lost = frames_lost_;
+  out.frames_degraded = frames_degraded_;
+  out.gyro_samples = gyro_samples_;
   out.frames_rejected = frames_rejected_;
   out.poses_forgotten = poses_forgotten_;
   const int64_t now = MonotonicNowNs();

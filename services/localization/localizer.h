@@ -71,6 +71,8 @@ struct LocalizerStatus {
   uint64_t frames_processed = 0;
   uint64_t frames_dropped = 0;  // live frames dropped because the queue was full
   uint64_t frames_lost = 0;
+  uint64_t frames_degraded = 0;
+  uint64_t gyro_samples = 0;
   uint64_t frames_rejected = 0;  // malformed live frames (size, checksum, time not increasing)
   uint64_t poses_forgotten = 0;  // oldest poses dropped from the trajectory history (its cap)
   double fps = 0;                // processed frames per wall second over the last ~2 s
@@ -146,6 +148,7 @@ class Localizer {
   WorkQueue queue_;
   // Only touched on the worker thread.
   std::unique_ptr<localization::RigOdometry> odometry_;
+  ReportedState last_logged_state_ = ReportedState::kUnspecified;  // worker only
   struct GyroSample {
     int64_t t_ns;
     Eigen::Vector3d omega;
@@ -161,6 +164,8 @@ class Localizer {
   uint64_t frames_processed_ = 0;
   uint64_t frames_dropped_ = 0;
   uint64_t frames_lost_ = 0;
+  uint64_t frames_degraded_ = 0;  // guarded by mutex_
+  uint64_t gyro_samples_ = 0;     // guarded by mutex_; handed to the odometry
   uint64_t frames_rejected_ = 0;
   uint64_t poses_forgotten_ = 0;
   uint64_t keyframes_ = 0;

@@ -218,12 +218,12 @@ void Localizer::AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_body) {
 Result<RigPose> Localizer::ProcessOnWorker(const StereoInput& input) {
   if (odometry_ == nullptr)
     return Status::FailedPrecondition("not configured: call Configure first");
-  std::deque<GyroSample> gyro;
+  std::deque<localization::GyroSample> gyro;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     gyro.swap(pending_gyro_);
   }
-  for (const GyroSample& g : gyro) odometry_->AddGyro(g.t_ns, g.omega);
+  for (const localization::GyroSample& g : gyro) odometry_->AddGyro(g.t_ns, g.omega);
   Result<RigPose> pose = odometry_->Process(input.t_ns, input.left, input.right, input.rectified);
   if (!pose.ok()) {
     MAV_LOG(kWarning) << "frame " << input.t_ns << ": " << pose.status().ToString();

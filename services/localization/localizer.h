@@ -149,11 +149,7 @@ class Localizer {
   // Only touched on the worker thread.
   std::unique_ptr<localization::RigOdometry> odometry_;
   ReportedState last_logged_state_ = ReportedState::kUnspecified;  // worker only
-  struct GyroSample {
-    int64_t t_ns;
-    Eigen::Vector3d omega;
-  };
-  std::deque<GyroSample> pending_gyro_;  // guarded by mutex_
+  std::deque<localization::GyroSample> pending_gyro_;              // guarded by mutex_
 
   mutable std::mutex mutex_;
   // Guarded by mutex_.

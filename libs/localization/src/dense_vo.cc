@@ -33,6 +33,14 @@ bool IsFinite(const SE3& T) {
 
 double RotationDeg(const SE3& T) { return geometry::LogSO3(T.Rotation()).norm() * kRadToDeg; }
 
+// The effective Jacobian at log gain a is the static one times D = diag(exp(a) x 7, 1) (the
+// static Jacobian is taken for gain 1; the bias column does not scale).
+Vector8d GainScaling(double a) {
+  Vector8d d = Vector8d::Constant(std::exp(a));
+  d[7] = 1.0;
+  return d;
+}
+
 // Pinhole intrinsics of one pyramid level. cv::pyrDown keeps pixel (2u, 2v) of the finer level
 // at (u, v), so the intrinsics halve exactly: fx_l = fx / 2^l, cx_l = cx / 2^l.
 struct LevelCamera {
@@ -705,10 +713,7 @@ struct DenseVo::Impl {
       cost += prior_cost(*T_cur_kf, count, rw.sigma);
       for (int it = 0; it < options.max_iterations_per_level; ++it) {
         ++stats.iterations;
-        // Effective Jacobian = static Jacobian * D, D = diag(gain x 7, 1).
-        const double gain = std::exp(*a);
-        Vector8d d = Vector8d::Constant(gain);
-        d[7] = 1.0;
+        const Vector8d d = GainScaling(*a);
         Matrix8d He = d.asDiagonal() * H * d.asDiagonal();
         Vector8d ge = d.asDiagonal() * g;
         if (use_prior) {
@@ -755,9 +760,7 @@ struct DenseVo::Impl {
         // photometric normal equations without the prior, from the accepted state (a quadratic
         // model; at the prior-constrained optimum the two gradients balance). The gyro check
         // uses this, since the prior pulls the estimate itself to the gyro.
-        const double gain = std::exp(*a);
-        Vector8d d = Vector8d::Constant(gain);
-        d[7] = 1.0;
+        const Vector8d d = GainScaling(*a);
         Eigen::MatrixXd A = (d.asDiagonal() * H * d.asDiagonal()).topLeftCorner(dims, dims);
         A.diagonal().array() += 1e-9;
         const Eigen::VectorXd delta = A.ldlt().solve(-(d.asDiagonal() * g).head(dims));

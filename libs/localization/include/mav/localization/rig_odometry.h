@@ -111,6 +111,12 @@ struct RigPose {
   RigStageTiming timing;
 };
 
+// One gyro reading: stamp and angular rate in the body frame [rad/s].
+struct GyroSample {
+  int64_t t_ns = 0;
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+};
+
 class RigOdometry {
  public:
   // Covariance heuristic constants (see the file comment).
@@ -162,11 +168,6 @@ class RigOdometry {
   std::optional<Eigen::Quaterniond> IntegrateGyro(int64_t t0_ns, int64_t t1_ns) const;
   void UpdateGyroBias(const Eigen::Quaterniond& R_body_gyro, const geometry::SE3& T_prev_cur_cam,
                       double dt_s);
-
-  struct GyroSample {
-    int64_t t_ns;
-    Eigen::Vector3d omega;
-  };
 
   RigOdometryOptions options_;
   camera::RigRectification rectification_;

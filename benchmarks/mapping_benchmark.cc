@@ -27,11 +27,15 @@ struct Fixture {
   }
 };
 
+// Args: keyframes; map preference (0 = kMcc, the paper's weights; 1 = kSafety, the pipeline's
+// default: the weakly-supported-surface pass on top).
 void BM_BuildMesh(benchmark::State& state) {
   const Fixture f(static_cast<int>(state.range(0)));
+  const MeshingOptions options =
+      MeshingOptionsFor(state.range(1) != 0 ? MapPreference::kSafety : MapPreference::kMcc);
   MeshingStats stats;
   for (auto _ : state) {
-    auto result = BuildMesh(f.points, f.keyframes);
+    auto result = BuildMesh(f.points, f.keyframes, options);
     benchmark::DoNotOptimize(result);
     stats = result->stats;
   }
@@ -41,8 +45,13 @@ void BM_BuildMesh(benchmark::State& state) {
   state.counters["t_triangulation_s"] = stats.triangulation_s;
   state.counters["t_visibility_s"] = stats.visibility_s;
   state.counters["t_graph_cut_s"] = stats.graph_cut_s;
+  state.counters["support_jumps"] = static_cast<double>(stats.weak_surface_rays);
 }
-BENCHMARK(BM_BuildMesh)->Arg(120)->Arg(300)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_BuildMesh)
+    ->Args({120, 0})
+    ->Args({300, 0})
+    ->Args({300, 1})
+    ->Unit(benchmark::kMillisecond);
 
 // Arg: the lines of sight's radius in voxels (0 = thin; the pipeline's default is 1).
 void BM_MeshToOccupancy(benchmark::State& state) {

@@ -361,6 +361,13 @@ int RunMapping(const std::vector<std::string>& args) {
   int64_t points_per_keyframe = options.sparse.target_points_per_keyframe;
   flags.AddInt64("points-per-keyframe", &points_per_keyframe,
                  "sparse-mesh: stereo points kept per keyframe (the paper: ~100)", 1, 100000);
+  int64_t foreground_points = options.sparse.foreground_points_per_keyframe;
+  flags.AddInt64("foreground-points", &foreground_points,
+                 "sparse-mesh: extra points per keyframe at depth discontinuities (thin "
+                 "structures; 0 = the paper's selection)",
+                 0, 100000);
+  flags.AddDouble("foreground-drop", &options.sparse.foreground_depth_drop,
+                  "sparse-mesh: relative depth drop below the neighbourhood median for those");
   flags.AddDouble("mesh-sigma", &options.meshing.sigma,
                   "sparse-mesh: distance behind a point of its inside (sink) cell [m]");
   flags.AddBool("free-requires-traversal", &options.mesh_to_grid.free_requires_traversal,
@@ -391,6 +398,20 @@ int RunMapping(const std::vector<std::string>& args) {
                 "sparse-mesh: mesh single-view points that no other keyframe could check");
   flags.AddDouble("mesh-lambda", &options.meshing.lambda_quality,
                   "sparse-mesh: weight of the surface-quality term");
+  std::string prefer = "safety";
+  flags.AddString("prefer", &prefer,
+                  "sparse-mesh: safety (fewer missed collisions: weakly supported surfaces on, "
+                  "the default) or mcc (the paper's weights: the best MCC)");
+  double weak_surface_weight = -1.0;
+  flags.AddDouble("weak-surface-weight", &weak_surface_weight,
+                  "sparse-mesh: extra weight of a line of sight at a free-space-support jump "
+                  "(Jancosek and Pajdla 2011; 0 = off; default: from --prefer)");
+  flags.AddDouble("weak-surface-ratio", &options.meshing.weak_surface_ratio,
+                  "sparse-mesh: a jump: support behind the point <= this x the support in front");
+  flags.AddDouble("weak-surface-depth", &options.meshing.weak_surface_depth,
+                  "sparse-mesh: distance behind the point searched for the least support [m]");
+  flags.AddDouble("weak-surface-min-support", &options.meshing.weak_surface_min_support,
+                  "sparse-mesh: least support in front of the point for a jump [lines of sight]");
   flags.AddBool("all-reobservations", &options.sparse.apply_all_reobservations,
                 "sparse-mesh: apply every re-observation of an existing point, beyond the target");
   flags.AddBool("occupy-surface-voxels", &options.mesh_to_grid.occupy_surface_voxels,
@@ -406,7 +427,17 @@ int RunMapping(const std::vector<std::string>& args) {
     std::cerr << kCommand << ": --data DIR is required\n" << flags.Help();
     return 2;
   }
+  std::optional<mapping::MapPreference> preference;
+  for (const mapping::MapPreference p :
+       {mapping::MapPreference::kSafety, mapping::MapPreference::kMcc}) {
+    if (prefer == mapping::MapPreferenceName(p)) preference = p;
+  }
+  if (!preference) return Fail("--prefer: '" + prefer + "' is not safety or mcc", 2);
+  options.meshing.weak_surface_weight = mapping::MeshingOptionsFor(*preference).weak_surface_weight;
+  // -1 = not given; any other negative value is rejected by MeshingOptions::IsValid.
+  if (weak_surface_weight != -1.0) options.meshing.weak_surface_weight = weak_surface_weight;
   options.sparse.target_points_per_keyframe = static_cast<int>(points_per_keyframe);
+  options.sparse.foreground_points_per_keyframe = static_cast<int>(foreground_points);
   options.mesh_to_grid.carve_radius_voxels = static_cast<int>(carve_radius);
   options.mesh_to_grid.occupied_margin_voxels = static_cast<int>(safety_margin);
   options.mesh_to_grid.free_near_ray_voxels = static_cast<int>(free_near_ray);
@@ -555,6 +586,10 @@ int RunMapping(const std::vector<std::string>& args) {
       json.Set(name, "lines_of_sight", static_cast<double>(out->lines_of_sight));
       json.Set(name, "observations", static_cast<double>(out->sparse_stats.TotalSelected()));
       json.Set(name, "mesh_triangles", static_cast<double>(out->meshing.mesh.triangles.size()));
+      json.Set(name, "inside_cells", static_cast<double>(out->meshing.stats.num_inside_cells));
+      json.Set(name, "weak_surface_weight", options.meshing.weak_surface_weight);
+      json.Set(name, "weak_surface_rays",
+               static_cast<double>(out->meshing.stats.weak_surface_rays));
     } else {
       const mapping::OctomapTiming& t = out->octomap_timing;
       json.Set(name, "disparity_s", t.disparity_s);
@@ -583,10 +618,11 @@ int RunMapping(const std::vector<std::string>& args) {
     std::printf(
         "\nsparse-mesh stages: features %.2f s, stereo %.2f s, merge %.2f s, meshing %.2f s, "
         "to grid %.2f s; %zu points (%lld seen from >1 keyframe), %lld observations, %zu "
-        "triangles, %lld lines of sight for the free space\n",
+        "triangles, %lld lines of sight for the free space; %lld meshing rays at a support jump\n",
         t.extraction_s, t.matching_s, t.merging_s, t.meshing_s, t.to_grid_s, out->points.size(),
         static_cast<long long>(multi), static_cast<long long>(out->sparse_stats.TotalSelected()),
-        out->meshing.mesh.triangles.size(), static_cast<long long>(out->lines_of_sight));
+        out->meshing.mesh.triangles.size(), static_cast<long long>(out->lines_of_sight),
+        static_cast<long long>(out->meshing.stats.weak_surface_rays));
   }
   if (out->has_octomap) {
     const mapping::OctomapTiming& t = out->octomap_timing;

@@ -280,9 +280,12 @@ int Build(const std::vector<std::string>& args) {
   connection.timeout_s = 120.0;
   FlagParser flags("mavctl map build", "Builds the map from the session's keyframes.");
   AddConnectionFlags(&flags, &connection);
-  std::string method, bounds, unknown = "keep";
+  std::string method, bounds, unknown = "keep", prefer = "safety";
   double resolution = 0;
   flags.AddString("method", &method, "sparse-mesh|octomap");
+  flags.AddString("prefer", &prefer,
+                  "sparse-mesh: safety (fewer missed collisions, the default) or mcc (the "
+                  "paper's weights)");
   flags.AddDouble("resolution", &resolution, "voxel edge, m (0 = 0.05)");
   flags.AddString("bounds", &bounds, "grid extent x0,y0,z0,x1,y1,z1 (default: around the map)");
   flags.AddString("unknown", &unknown, "unobserved voxels: keep|occupied|free");
@@ -305,6 +308,13 @@ int Build(const std::vector<std::string>& args) {
     request.set_unknown(v1::UNKNOWN_HANDLING_AS_FREE);
   } else {
     return Usage("--unknown: " + QuoteForError(unknown) + " is not keep, occupied or free");
+  }
+  if (prefer == "safety") {
+    request.set_prefer(v1::MAP_PREFERENCE_SAFETY);
+  } else if (prefer == "mcc") {
+    request.set_prefer(v1::MAP_PREFERENCE_MCC);
+  } else {
+    return Usage("--prefer: " + QuoteForError(prefer) + " is not safety or mcc");
   }
   auto stub = Connect(connection);
   v1::BuildMapResponse response;

@@ -182,6 +182,19 @@ Result<BuildRequest> BuildFromProto(const v1::BuildMapRequest& request) {
                                      std::to_string(static_cast<int>(request.unknown())));
   }
 
+  switch (request.prefer()) {
+    case v1::MAP_PREFERENCE_UNSPECIFIED:
+    case v1::MAP_PREFERENCE_SAFETY:
+      out.meshing = mapping::MeshingOptionsFor(mapping::MapPreference::kSafety);
+      break;
+    case v1::MAP_PREFERENCE_MCC:
+      out.meshing = mapping::MeshingOptionsFor(mapping::MapPreference::kMcc);
+      break;
+    default:
+      return Status::InvalidArgument("prefer: unknown value " +
+                                     std::to_string(static_cast<int>(request.prefer())));
+  }
+
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const v1::SparseMeshOptions& s = request.sparse_mesh();
   MAV_RETURN_IF_ERROR(DoubleOption(s.free_space_weight(), 0.0, true, kInf,

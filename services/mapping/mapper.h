@@ -99,7 +99,7 @@ struct BuildRequest {
   std::optional<Eigen::AlignedBox3d> bounds;
   UnknownHandling unknown = UnknownHandling::kKeepUnknown;
   // SPARSE_MESH: the mesher's options and the minimum number of keyframes that saw a point.
-  mapping::MeshingOptions meshing;
+  mapping::MeshingOptions meshing = mapping::MeshingOptionsFor(mapping::MapPreference::kSafety);
   int min_visibility = 1;
 
   static constexpr double kDefaultPaddingM = 1.0;

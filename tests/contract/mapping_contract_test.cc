@@ -465,6 +465,9 @@ TEST_F(MappingContractTest, BuildMapValidatesNamingTheField) {
   request.mutable_octomap()->set_prob_hit(0.3);
   EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "octomap.prob_hit");
   request.clear_octomap();
+  request.set_prefer(static_cast<v1::MapPreference>(9));
+  EXPECT_CODE(Build(request), StatusCode::INVALID_ARGUMENT, "prefer: unknown value 9");
+  request.set_prefer(v1::MAP_PREFERENCE_MCC);
 
   // Above the server's voxel limit (20 M in this fixture): 1 km^3 at 5 cm.
   *request.mutable_bounds() = MakeBox(-500, -500, -500, 500, 500, 500);

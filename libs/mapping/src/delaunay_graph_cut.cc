@@ -255,6 +255,16 @@ DelaunayTetrahedralization::Walk DelaunayTetrahedralization::TraceLineOfSight(
 // ---------------------------------------------------------------------------------------------
 // BuildMesh
 
+const char* MapPreferenceName(MapPreference preference) {
+  return preference == MapPreference::kSafety ? "safety" : "mcc";
+}
+
+MeshingOptions MeshingOptionsFor(MapPreference preference) {
+  MeshingOptions options;
+  if (preference == MapPreference::kSafety) options.weak_surface_weight = 4.0;
+  return options;
+}
+
 bool MeshingOptions::IsValid(std::string* why) const {
   auto fail = [&](const std::string& m) {
     if (why) *why = m;
@@ -266,6 +276,18 @@ bool MeshingOptions::IsValid(std::string* why) const {
   }
   if (!(sigma > 0.0) || !std::isfinite(sigma)) return fail("sigma must be > 0 [m]");
   if (!(max_ray_length > 0.0)) return fail("max_ray_length must be > 0 [m]");
+  if (!(weak_surface_weight >= 0.0) || !std::isfinite(weak_surface_weight)) {
+    return fail("weak_surface_weight must be >= 0");
+  }
+  if (!(weak_surface_ratio >= 0.0 && weak_surface_ratio <= 1.0)) {
+    return fail("weak_surface_ratio must be in [0, 1]");
+  }
+  if (!(weak_surface_depth >= sigma) || !std::isfinite(weak_surface_depth)) {
+    return fail("weak_surface_depth must be >= sigma [m]");
+  }
+  if (!(weak_surface_min_support >= 0.0) || !std::isfinite(weak_surface_min_support)) {
+    return fail("weak_surface_min_support must be >= 0");
+  }
   return true;
 }
 
@@ -328,45 +350,100 @@ Result<MeshingResult> BuildMesh(const std::vector<MapPoint>& points,
   std::vector<int> rays_per_cell(n, 0);
   const double alpha = options.alpha_vis;
   DelaunayTetrahedralization::Impl::WalkBuffer buffer;
-  for (size_t k = 0; k < keyframes.size(); ++k) {
-    if (points_of_keyframe[k].empty()) continue;
-    const Eigen::Vector3d& camera = keyframes[k].center_world;
-    const Point camera_point = ToPoint(camera);
-    const CellHandle camera_cell = dt.locate(camera_point);
-    for (int i : points_of_keyframe[k]) {
-      const VertexHandle v = impl->vertex_of_point[i];
-      const Eigen::Vector3d p = ToEigen(v->point());
-      const double length = (p - camera).norm();
-      if (!(length > 1e-9) || length > options.max_ray_length) continue;
-      int perturbed = 0;
-      const bool walked = impl->Walk(camera_point, v, camera_cell, &buffer, &perturbed);
-      stats.perturbed_walks += perturbed > 0 ? 1 : 0;
-      if (!walked) {
-        ++stats.failed_walks;
-        continue;
+  // Calls visit(camera_point, camera_cell, v, p, dir, length) for every line of sight kept
+  // (length in (0, max_ray_length]), keyframe by keyframe.
+  auto for_each_line_of_sight = [&](auto&& visit) {
+    for (size_t k = 0; k < keyframes.size(); ++k) {
+      if (points_of_keyframe[k].empty()) continue;
+      const Eigen::Vector3d& camera = keyframes[k].center_world;
+      const Point camera_point = ToPoint(camera);
+      const CellHandle camera_cell = dt.locate(camera_point);
+      for (int i : points_of_keyframe[k]) {
+        const VertexHandle v = impl->vertex_of_point[i];
+        const Eigen::Vector3d p = ToEigen(v->point());
+        const double length = (p - camera).norm();
+        if (!(length > 1e-9) || length > options.max_ray_length) continue;
+        visit(camera_point, camera_cell, v, p, Eigen::Vector3d((p - camera) / length), length);
       }
-      ++stats.num_rays;
-      graph.source_cap[camera_cell->info()] += alpha;
-      for (CellHandle c : buffer.cells) ++rays_per_cell[c->info()];
-      for (const auto& [c, f] : buffer.facets) {
-        facet_weight[static_cast<size_t>(c->info()) * 4 + f] += alpha;
-      }
-      stats.num_cell_steps += static_cast<int64_t>(buffer.cells.size());
-      stats.degenerate_steps += buffer.degenerate;
-      const CellHandle last = buffer.cells.back();
-      const Eigen::Vector3d dir = (p - camera) / length;
-      const CellHandle behind = impl->BehindCell(v, dir, options.sigma, last);
-      graph.sink_cap[behind->info()] += alpha;
     }
+  };
+  for_each_line_of_sight([&](const Point& camera_point, CellHandle camera_cell, VertexHandle v,
+                             const Eigen::Vector3d&, const Eigen::Vector3d& dir, double) {
+    int perturbed = 0;
+    const bool walked = impl->Walk(camera_point, v, camera_cell, &buffer, &perturbed);
+    stats.perturbed_walks += perturbed > 0 ? 1 : 0;
+    if (!walked) {
+      ++stats.failed_walks;
+      return;
+    }
+    ++stats.num_rays;
+    graph.source_cap[camera_cell->info()] += alpha;
+    for (CellHandle c : buffer.cells) ++rays_per_cell[c->info()];
+    for (const auto& [c, f] : buffer.facets) {
+      facet_weight[static_cast<size_t>(c->info()) * 4 + f] += alpha;
+    }
+    stats.num_cell_steps += static_cast<int64_t>(buffer.cells.size());
+    stats.degenerate_steps += buffer.degenerate;
+    const CellHandle behind = impl->BehindCell(v, dir, options.sigma, buffer.cells.back());
+    graph.sink_cap[behind->info()] += alpha;
+  });
+  if (options.weak_surface_weight > 0.0) {
+    // Free-space support jumps (Jancosek and Pajdla 2011). The support of a cell is the weight of
+    // the rays that crossed it (rays_per_cell); a second pass over the lines of sight compares
+    // the cell `sigma` in front of each point with the cells behind it, sampled every `sigma` up
+    // to weak_surface_depth. A line of sight whose point shows a jump counts
+    // (1 + weak_surface_weight) times: its facets again, and its sink link; its camera cell's
+    // source link is made hard below.
+    const double step = options.sigma;
+    const double extra = options.weak_surface_weight * alpha;
+    for_each_line_of_sight([&](const Point& camera_point, CellHandle camera_cell, VertexHandle v,
+                               const Eigen::Vector3d& p, const Eigen::Vector3d& dir,
+                               double length) {
+      const CellHandle front =
+          dt.locate(ToPoint(p - std::min(step, 0.5 * length) * dir), v->cell());
+      const double front_support = alpha * rays_per_cell[front->info()];
+      if (front_support < options.weak_surface_min_support * alpha) return;
+      CellHandle hint = v->cell();
+      CellHandle behind;
+      double behind_support = std::numeric_limits<double>::infinity();
+      for (double d = step; d <= options.weak_surface_depth + 1e-9; d += step) {
+        const CellHandle c = dt.locate(ToPoint(p + d * dir), hint);
+        if (behind == CellHandle()) behind = c;
+        behind_support = std::min(behind_support, alpha * rays_per_cell[c->info()]);
+        hint = c;
+      }
+      if (behind_support > options.weak_surface_ratio * front_support) return;
+      int perturbed = 0;
+      if (!impl->Walk(camera_point, v, camera_cell, &buffer, &perturbed)) return;
+      for (const auto& [c, f] : buffer.facets) {
+        facet_weight[static_cast<size_t>(c->info()) * 4 + f] += extra;
+      }
+      graph.sink_cap[behind->info()] += extra;
+      ++stats.weak_surface_rays;
+    });
   }
-  if (options.force_infinite_cells_outside) {
-    // A capacity larger than any cut through finite facets can cost makes the link hard.
+  // A capacity larger than any cut through finite facets can cost makes a source link hard.
+  auto hard_capacity = [&] {
     double total = 0.0;
     for (double w : facet_weight) total += w;
     total += 2.0 * options.lambda_quality * static_cast<double>(n) * 4.0;
     for (double w : graph.sink_cap) total += w;
+    return total + 1.0;
+  };
+  if (options.force_infinite_cells_outside) {
+    const double hard = hard_capacity();
     for (auto c = dt.all_cells_begin(); c != dt.all_cells_end(); ++c) {
-      if (dt.is_infinite(c)) graph.source_cap[c->info()] += total + 1.0;
+      if (dt.is_infinite(c)) graph.source_cap[c->info()] += hard;
+    }
+  }
+  if (options.weak_surface_weight > 0.0) {
+    // The extra sink weight outweighs the cameras' alpha_vis source links: without hard links a
+    // cut around the cameras can be the cheapest, labelling the rest of the room inside (seen on
+    // room-hard with a sink-only extra weight). A camera centre is free space: the vehicle was
+    // there.
+    const double hard = hard_capacity();
+    for (const KeyframeView& k : keyframes) {
+      graph.source_cap[dt.locate(ToPoint(k.center_world))->info()] += hard;
     }
   }
   stats.visibility_s = SecondsSince(t0);

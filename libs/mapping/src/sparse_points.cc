@@ -102,6 +102,12 @@ bool SparsePointsOptions::IsValid(std::string* why) const {
     msg << "target_points_per_keyframe: must be >= 1, got " << target_points_per_keyframe;
   } else if (bucket_cols < 1 || bucket_rows < 1) {
     msg << "bucket_cols/bucket_rows: must be >= 1, got " << bucket_cols << "x" << bucket_rows;
+  } else if (foreground_points_per_keyframe < 0) {
+    msg << "foreground_points_per_keyframe: must be >= 0, got " << foreground_points_per_keyframe;
+  } else if (!(foreground_depth_drop > 0 && foreground_depth_drop < 1)) {
+    msg << "foreground_depth_drop: must be in (0, 1), got " << foreground_depth_drop;
+  } else if (!(foreground_radius_px > 0) || !std::isfinite(foreground_radius_px)) {
+    msg << "foreground_radius_px: must be finite and > 0 [px], got " << foreground_radius_px;
   } else if (merge_window_keyframes < 0) {
     msg << "merge_window_keyframes: must be >= 0, got " << merge_window_keyframes;
   } else if (!(merge_radius_px > 0) || !std::isfinite(merge_radius_px)) {
@@ -531,6 +537,31 @@ Result<int> SparsePointCloud::AddObservationsTimed(
       if (rank < b.size()) selected.push_back(b[rank]);
       if (static_cast<int>(selected.size()) >= target) break;
     }
+  }
+  if (options_.foreground_points_per_keyframe > 0) {
+    std::vector<char> is_selected(n, 0);
+    for (int i : selected) is_selected[i] = 1;
+    const double r2 = options_.foreground_radius_px * options_.foreground_radius_px;
+    std::vector<std::pair<double, int>> drops;  // (depth / neighbourhood median, match)
+    std::vector<double> near;
+    for (int i = 0; i < n; ++i) {
+      if (is_selected[i] || (match_of_observation[i] < 0 && !supported[i])) continue;
+      near.clear();
+      for (int j = 0; j < n; ++j) {
+        const double du = observations[j].u_left - observations[i].u_left;
+        const double dv = observations[j].v_left - observations[i].v_left;
+        if (j != i && du * du + dv * dv <= r2) near.push_back(p_cam[j].z());
+      }
+      if (near.size() < 4) continue;
+      std::nth_element(near.begin(), near.begin() + near.size() / 2, near.end());
+      const double ratio = p_cam[i].z() / near[near.size() / 2];
+      if (ratio <= 1.0 - options_.foreground_depth_drop) drops.emplace_back(ratio, i);
+    }
+    std::sort(drops.begin(), drops.end());
+    const size_t extra =
+        std::min(drops.size(), static_cast<size_t>(options_.foreground_points_per_keyframe));
+    for (size_t k = 0; k < extra; ++k) selected.push_back(drops[k].second);
+    stats.foreground += static_cast<int>(extra);
   }
   if (options_.apply_all_reobservations) {
     std::vector<char> is_selected(n, 0);

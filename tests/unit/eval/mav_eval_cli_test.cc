@@ -122,4 +122,15 @@ TEST_F(MavEvalCli, NoStereoFramesSaysWhyNamingTheDirectory) {
   EXPECT_NE(r.output.find("share no timestamp"), std::string::npos) << r.output;
 }
 
+// The map preference and the weak-surface weight are checked before any work, naming the flag or
+// the field.
+TEST_F(MavEvalCli, MappingPreferenceIsValidated) {
+  RunResult r = RunTool("mav-eval", "mapping --method sparse-mesh --prefer fast --data " + set_);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--prefer: 'fast' is not safety or mcc"), std::string::npos) << r.output;
+  r = RunTool("mav-eval", "mapping --method sparse-mesh --weak-surface-weight -2 --data " + set_);
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("weak_surface_weight must be >= 0"), std::string::npos) << r.output;
+}
+
 }  // namespace

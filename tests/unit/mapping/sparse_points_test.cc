@@ -417,6 +417,63 @@ TEST(SparsePointsTest, SightLinesAreCappedAndTheDropsCounted) {
   EXPECT_EQ(why.rfind("max_sight_lines", 0), 0u) << why;
 }
 
+// The thin-structure budget: six points of a "pipe" 2 m in front of a wall at 4 m. With a budget of
+// 10 spread points per keyframe few of them are taken; the foreground budget takes every verified
+// one in the second keyframe (the first has nothing to verify against).
+TEST(SparsePointsTest, ForegroundBudgetTakesThinStructuresInFrontOfAWall) {
+  const camera::RectifiedStereo rig = Rig();
+  SyntheticPoints scene = MakeWallPoints(200, 11);
+  std::vector<Eigen::Vector3d> pipe;
+  for (int i = 0; i < 6; ++i) {
+    pipe.emplace_back(2.0, -0.5 + 0.2 * i, 1.5);
+    scene.p_world.push_back(pipe.back());
+    localization::Descriptor d;
+    for (size_t b = 0; b < d.bytes.size(); ++b) d.bytes[b] = static_cast<uint8_t>(31 * i + 7 * b);
+    scene.descriptors.push_back(d);
+    scene.classes.push_back(i % 4);
+  }
+  auto pipe_points_in_cloud = [&](int foreground) {
+    SparsePointsOptions options;
+    options.target_points_per_keyframe = 10;
+    options.foreground_points_per_keyframe = foreground;
+    auto cloud = SparsePointCloud::Create(rig, options);
+    EXPECT_TRUE(cloud.ok());
+    for (int k = 0; k < 2; ++k) {
+      const geometry::SE3 pose = PoseLookingAlongX({0.2 * k, 0.05 * k, 1.5});
+      std::vector<StereoObservation> obs;
+      for (size_t i = 0; i < scene.p_world.size(); ++i) {
+        if (auto o = Observe(rig, pose, scene.p_world[i], scene.classes[i], scene.descriptors[i])) {
+          obs.push_back(*o);
+        }
+      }
+      EXPECT_TRUE(cloud->AddKeyframeObservations(obs, pose).ok());
+    }
+    EXPECT_EQ(cloud->stats().keyframes[0].foreground, 0);
+    EXPECT_LE(cloud->stats().keyframes[1].foreground, foreground);
+    int found = 0;
+    for (const Eigen::Vector3d& q : pipe) {
+      for (const MapPoint& p : cloud->AllPoints()) {
+        if ((p.p_world - q).norm() < 1e-3) {
+          ++found;
+          break;
+        }
+      }
+    }
+    return found;
+  };
+  const int without = pipe_points_in_cloud(0);
+  const int with = pipe_points_in_cloud(8);
+  std::printf("pipe points in the cloud: %d without the foreground budget, %d with it\n", without,
+              with);
+  EXPECT_LT(without, 6);
+  EXPECT_EQ(with, 6);
+  SparsePointsOptions o;
+  o.foreground_depth_drop = 1.0;
+  std::string why;
+  EXPECT_FALSE(o.IsValid(&why));
+  EXPECT_EQ(why.rfind("foreground_depth_drop", 0), 0u) << why;
+}
+
 TEST(SparsePointsOptionsTest, NamesTheInvalidVerificationField) {
   std::string why;
   SparsePointsOptions o;

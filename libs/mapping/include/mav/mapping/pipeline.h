@@ -57,7 +57,10 @@ struct MappingPipelineOptions {
   bool run_octomap = true;
   KeyframeOptions keyframes;
   SparsePointsOptions sparse;
-  MeshingOptions meshing;
+  // The stack's default map favours safety (MapPreference::kSafety: weakly supported surfaces on;
+  // docs/mapping.md, "Missed-collision budget"); MeshingOptionsFor(MapPreference::kMcc) is the
+  // paper's method.
+  MeshingOptions meshing = MeshingOptionsFor(MapPreference::kSafety);
   // free_requires_traversal on: in the rendered rooms the noisy ceiling and wall points (a few cm
   // of depth noise seen at grazing angles) give large outside-labelled cells that reach into the
   // solid slabs; only cells a line of sight actually crossed are free space that was observed.

@@ -30,6 +30,8 @@
 //     stereo cost; buckets are visited round-robin (every bucket's best, then every bucket's second
 //     best, ...) until the target is reached. Re-observations are preferred because a point seen
 //     from several keyframes gives the mesher several lines of sight.
+//     With foreground_points_per_keyframe > 0, a second budget takes verified matches at depth
+//     discontinuities (thin structures in front of a wall) that the spread missed.
 //  5. A selected re-observation adds the keyframe to the point's visibility and moves the point to
 //     the inverse-variance weighted mean of its triangulations (stereo depth variance grows as Z^4,
 //     so the weight is 1 / Z^4); any other selected match becomes a new point.
@@ -93,6 +95,14 @@ struct SparsePointsOptions {
   int target_points_per_keyframe = 100;
   int bucket_cols = 10;
   int bucket_rows = 6;
+  // Thin-structure budget (0 = off, the paper's selection): up to this many more matches per
+  // keyframe at depth discontinuities, i.e. verified matches (re-observed or supported, step 6)
+  // whose depth is at most (1 - foreground_depth_drop) times the median depth of the matches within
+  // foreground_radius_px: a pipe, a rung or a table edge in front of the wall behind it, which the
+  // even spread of step 4 rarely picks. Largest relative drop first.
+  int foreground_points_per_keyframe = 0;
+  double foreground_depth_drop = 0.2;
+  double foreground_radius_px = 40.0;
 
   // Merging (re-observation) of points across keyframes, see the header comment.
   int merge_window_keyframes = 10;      // 0 disables merging
@@ -150,6 +160,7 @@ struct SparseKeyframeStats {
   int reobserved = 0;        // of the selected: merged into existing points
   int new_points = 0;        // of the selected: new points
   int supported = 0;         // matches supported by a match of an earlier keyframe (step 6)
+  int foreground = 0;        // of the selected: taken by the thin-structure budget
   double extraction_ms = 0;  // feature extraction, both images
   double matching_ms = 0;    // stereo matching and sub-pixel refinement
   double merging_ms = 0;     // projection, gating, selection, triangulation, update

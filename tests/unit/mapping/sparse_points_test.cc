@@ -422,7 +422,20 @@ TEST(SparsePointsTest, SightLinesAreCappedAndTheDropsCounted) {
 // one in the second keyframe (the first has nothing to verify against).
 TEST(SparsePointsTest, ForegroundBudgetTakesThinStructuresInFrontOfAWall) {
   const camera::RectifiedStereo rig = Rig();
-  SyntheticPoints scene = MakeWallPoints(200, 11);
+  // A regular wall (a random one would depend on the compiler's argument evaluation order):
+  // 20 x 10 points over y in [-2, 2], z in [0.5, 2.5] at x = 4, ~25 px apart in the images.
+  SyntheticPoints scene;
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<int> byte(0, 255);
+  for (int row = 0; row < 10; ++row) {
+    for (int col = 0; col < 20; ++col) {
+      scene.p_world.emplace_back(4.0, -1.9 + 0.2 * col, 0.6 + 0.2 * row + 0.03);
+      localization::Descriptor d;
+      for (auto& b : d.bytes) b = static_cast<uint8_t>(byte(rng));
+      scene.descriptors.push_back(d);
+      scene.classes.push_back((row + col) % 4);
+    }
+  }
   std::vector<Eigen::Vector3d> pipe;
   for (int i = 0; i < 6; ++i) {
     pipe.emplace_back(2.0, -0.5 + 0.2 * i, 1.5);

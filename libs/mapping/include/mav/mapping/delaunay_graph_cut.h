@@ -90,7 +90,7 @@ struct MeshingOptions {
 // "Missed-collision budget"):
 //  * kSafety (the stack's default): fewer missed collisions, i.e. fewer occupied voxels that the
 //    map calls free; weakly supported surfaces on (weak_surface_weight = 4): on the full rendered
-//    rooms misses 2.3-4.1 % -> 0.9-1.9 % at 0.00-0.08 lower MCC;
+//    rooms misses 2.3-4.1 % -> 0.9-2.0 % at 0.00-0.08 lower MCC;
 //  * kMcc: the paper's Labatut et al. weights alone, the best collision-check MCC.
 enum class MapPreference { kSafety, kMcc };
 const char* MapPreferenceName(MapPreference preference);  // "safety", "mcc"

@@ -412,6 +412,10 @@ int RunMapping(const std::vector<std::string>& args) {
                   "sparse-mesh: distance behind the point searched for the least support [m]");
   flags.AddDouble("weak-surface-min-support", &options.meshing.weak_surface_min_support,
                   "sparse-mesh: least support in front of the point for a jump [lines of sight]");
+  int64_t weak_surface_min_views = options.meshing.weak_surface_min_views;
+  flags.AddInt64("weak-surface-min-views", &weak_surface_min_views,
+                 "sparse-mesh: least number of observing keyframes of a point for the extra weight",
+                 1, 100000);
   flags.AddBool("all-reobservations", &options.sparse.apply_all_reobservations,
                 "sparse-mesh: apply every re-observation of an existing point, beyond the target");
   flags.AddBool("occupy-surface-voxels", &options.mesh_to_grid.occupy_surface_voxels,
@@ -438,6 +442,7 @@ int RunMapping(const std::vector<std::string>& args) {
   if (weak_surface_weight != -1.0) options.meshing.weak_surface_weight = weak_surface_weight;
   options.sparse.target_points_per_keyframe = static_cast<int>(points_per_keyframe);
   options.sparse.foreground_points_per_keyframe = static_cast<int>(foreground_points);
+  options.meshing.weak_surface_min_views = static_cast<int>(weak_surface_min_views);
   options.mesh_to_grid.carve_radius_voxels = static_cast<int>(carve_radius);
   options.mesh_to_grid.occupied_margin_voxels = static_cast<int>(safety_margin);
   options.mesh_to_grid.free_near_ray_voxels = static_cast<int>(free_near_ray);
@@ -650,6 +655,11 @@ int RunMapping(const std::vector<std::string>& args) {
     if (s.ok()) {
       s = write(dataset::WriteOctomapBt(out->sparse_mesh_grid, out_dir + "/sparse_mesh.bt"),
                 "sparse_mesh.bt");
+    }
+    if (s.ok()) {
+      // The stack's own grid format as well: lossless, same geometry as the ground truth.
+      s = write(dataset::WriteMavocc(out->sparse_mesh_grid, out_dir + "/sparse_mesh.mavocc"),
+                "sparse_mesh.mavocc");
     }
   }
   if (s.ok() && out->has_octomap) {

@@ -288,6 +288,7 @@ bool MeshingOptions::IsValid(std::string* why) const {
   if (!(weak_surface_min_support >= 0.0) || !std::isfinite(weak_surface_min_support)) {
     return fail("weak_surface_min_support must be >= 0");
   }
+  if (weak_surface_min_views < 1) return fail("weak_surface_min_views must be >= 1");
   return true;
 }
 
@@ -399,6 +400,9 @@ Result<MeshingResult> BuildMesh(const std::vector<MapPoint>& points,
     for_each_line_of_sight([&](const Point& camera_point, CellHandle camera_cell, VertexHandle v,
                                const Eigen::Vector3d& p, const Eigen::Vector3d& dir,
                                double length) {
+      if (static_cast<int>(points[v->info()].keyframes.size()) < options.weak_surface_min_views) {
+        return;
+      }
       const CellHandle front =
           dt.locate(ToPoint(p - std::min(step, 0.5 * length) * dir), v->cell());
       const double front_support = alpha * rays_per_cell[front->info()];

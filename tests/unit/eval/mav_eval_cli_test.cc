@@ -133,4 +133,22 @@ TEST_F(MavEvalCli, MappingPreferenceIsValidated) {
   EXPECT_NE(r.output.find("weak_surface_weight must be >= 0"), std::string::npos) << r.output;
 }
 
+// The sparse-mesh grid is written in the stack's own format too, and the weak-surface view gate is
+// checked before any work.
+TEST_F(MavEvalCli, MappingWritesTheGridAsMavocc) {
+  RunResult r = RunTool("mav-eval", "mapping --method sparse-mesh --no-figure --data " + set_);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string grid = ReadFile(set_ + "/eval/sparse_mesh.mavocc");
+  ASSERT_GT(grid.size(), 80u);
+  EXPECT_EQ(grid.substr(0, 8), std::string("MAVOCC\n\x1a"));
+  EXPECT_NE(r.output.find("sparse_mesh.mavocc"), std::string::npos) << r.output;
+  for (const char* flag : {"--weak-surface-min-views 0", "--weak-surface-min-views x"}) {
+    r = RunTool("mav-eval",
+                std::string("mapping --method sparse-mesh ") + flag + " --data " + set_);
+    EXPECT_EQ(r.exit_code, 2) << flag << ": " << r.output;
+    const std::string name = std::string(flag).substr(2, std::string(flag).find(' ') - 2);
+    EXPECT_NE(r.output.find(name), std::string::npos) << r.output;
+  }
+}
+
 }  // namespace

@@ -385,7 +385,28 @@ TEST(BuildMeshTest, WeakSurfaceSupportJumps) {
   EXPECT_LT(missed[1], missed[0]);
   EXPECT_GT(mcc[1], 0.5);  // a trade, not a collapse: the camera cells stay free
 
+  // Only points seen by enough keyframes get the extra weight.
+  int max_views = 0;
+  for (const MapPoint& p : points)
+    max_views = std::max(max_views, static_cast<int>(p.keyframes.size()));
+  MeshingOptions options = MeshingOptionsFor(MapPreference::kSafety);
+  int64_t few_view_jumps[2] = {0, 0};
+  for (int i = 0; i < 2; ++i) {
+    options.weak_surface_min_views = i == 0 ? 2 : max_views + 1;
+    const auto meshing = BuildMesh(points, keyframes, options);
+    ASSERT_TRUE(meshing.ok()) << meshing.status().ToString();
+    few_view_jumps[i] = meshing->stats.weak_surface_rays;
+  }
+  EXPECT_GT(few_view_jumps[0], 0);
+  EXPECT_LT(few_view_jumps[0], jumps[1]);
+  EXPECT_EQ(few_view_jumps[1], 0);
+
   MeshingOptions bad;
+  bad.weak_surface_min_views = 0;
+  auto r0 = BuildMesh(points, keyframes, bad);
+  ASSERT_FALSE(r0.ok());
+  EXPECT_NE(r0.status().message().find("weak_surface_min_views"), std::string::npos);
+  bad = MeshingOptions();
   bad.weak_surface_ratio = 1.5;
   auto r = BuildMesh(points, keyframes, bad);
   ASSERT_FALSE(r.ok());

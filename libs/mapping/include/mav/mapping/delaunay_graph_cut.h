@@ -82,6 +82,9 @@ struct MeshingOptions {
   double weak_surface_ratio = 0.25;
   double weak_surface_depth = 0.3;
   double weak_surface_min_support = 4.0;
+  // Only points with at least this many observing keyframes get the extra weight (1 = every
+  // point): a floating outlier seen once can show a jump as well as a surface can.
+  int weak_surface_min_views = 1;
 
   bool IsValid(std::string* why) const;
 };

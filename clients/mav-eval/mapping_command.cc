@@ -361,6 +361,11 @@ int RunMapping(const std::vector<std::string>& args) {
   int64_t points_per_keyframe = options.sparse.target_points_per_keyframe;
   flags.AddInt64("points-per-keyframe", &points_per_keyframe,
                  "sparse-mesh: stereo points kept per keyframe (the paper: ~100)", 1, 100000);
+  flags.AddDouble("stereo-uniqueness", &options.sparse.stereo_uniqueness_ratio,
+                  "sparse-mesh: a stereo match's SAD must be at most this x the second best on "
+                  "its row");
+  flags.AddDouble("max-depth", &options.sparse.max_depth_m,
+                  "sparse-mesh: deepest stereo point [m]");
   int64_t foreground_points = options.sparse.foreground_points_per_keyframe;
   flags.AddInt64("foreground-points", &foreground_points,
                  "sparse-mesh: extra points per keyframe at depth discontinuities (thin "

@@ -133,8 +133,8 @@ TEST_F(MavEvalCli, MappingPreferenceIsValidated) {
   EXPECT_NE(r.output.find("weak_surface_weight must be >= 0"), std::string::npos) << r.output;
 }
 
-// The sparse-mesh grid is written in the stack's own format too, and the weak-surface view gate is
-// checked before any work.
+// The sparse-mesh grid is written in the stack's own format too, and the weak-surface view gate and
+// the stereo uniqueness ratio are checked before any work.
 TEST_F(MavEvalCli, MappingWritesTheGridAsMavocc) {
   RunResult r = RunTool("mav-eval", "mapping --method sparse-mesh --no-figure --data " + set_);
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -149,6 +149,11 @@ TEST_F(MavEvalCli, MappingWritesTheGridAsMavocc) {
     const std::string name = std::string(flag).substr(2, std::string(flag).find(' ') - 2);
     EXPECT_NE(r.output.find(name), std::string::npos) << r.output;
   }
+  r = RunTool("mav-eval", "mapping --method sparse-mesh --stereo-uniqueness 1.5 --data " + set_);
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("sparse.stereo_uniqueness_ratio: must be in (0, 1], got 1.5"),
+            std::string::npos)
+      << r.output;
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include "mav/mapping/collision_eval.h"
 #include "mav/mapping/delaunay_graph_cut.h"
 #include "mav/mapping/mesh_to_grid.h"
+#include "mav/mapping/pipeline.h"
 #include "mav/mapping/synthetic_scene.h"
 
 namespace mav::mapping {
@@ -65,6 +66,20 @@ void BM_MeshToOccupancy(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_MeshToOccupancy)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// Arg: the map preference's grid options (MeshToGridOptionsFor): 0 = kSafety (voxels touching the
+// mesh occupied, the default), 1 = kMcc.
+void BM_MeshToOccupancyPreference(benchmark::State& state) {
+  const Fixture f(300);
+  const auto meshing = BuildMesh(f.points, f.keyframes);
+  const MeshToGridOptions options =
+      MeshToGridOptionsFor(state.range(0) == 0 ? MapPreference::kSafety : MapPreference::kMcc);
+  for (auto _ : state) {
+    auto grid = MeshToOccupancy(*meshing, f.points, f.keyframes, f.geometry, options);
+    benchmark::DoNotOptimize(grid);
+  }
+}
+BENCHMARK(BM_MeshToOccupancyPreference)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The whole pipeline as mav-eval runs it, with the collision MCC as a counter.
 void BM_MeshGridEvaluate(benchmark::State& state) {

@@ -400,13 +400,15 @@ int RunMapping(const std::vector<std::string>& args) {
                  "sparse-mesh: keyframes that check a single-view point (0 = no verification)", 0,
                  16);
   flags.AddBool("keep-unchecked", &options.sparse.keep_unchecked_points,
-                "sparse-mesh: mesh single-view points that no other keyframe could check");
+                "sparse-mesh: mesh single-view points that no other keyframe could check "
+                "(default: from --prefer)");
   flags.AddDouble("mesh-lambda", &options.meshing.lambda_quality,
                   "sparse-mesh: weight of the surface-quality term");
   std::string prefer = "safety";
   flags.AddString("prefer", &prefer,
-                  "sparse-mesh: safety (fewer missed collisions: weakly supported surfaces on, "
-                  "the default) or mcc (the paper's weights: the best MCC)");
+                  "sparse-mesh: safety (fewer missed collisions: weakly supported surfaces, "
+                  "voxels touching the mesh occupied, only checked points meshed; the default) "
+                  "or mcc (the paper's weights: the best MCC)");
   double weak_surface_weight = -1.0;
   flags.AddDouble("weak-surface-weight", &weak_surface_weight,
                   "sparse-mesh: extra weight of a line of sight at a free-space-support jump "
@@ -424,7 +426,7 @@ int RunMapping(const std::vector<std::string>& args) {
   flags.AddBool("all-reobservations", &options.sparse.apply_all_reobservations,
                 "sparse-mesh: apply every re-observation of an existing point, beyond the target");
   flags.AddBool("occupy-surface-voxels", &options.mesh_to_grid.occupy_surface_voxels,
-                "sparse-mesh: voxels touching the mesh are occupied");
+                "sparse-mesh: voxels touching the mesh are occupied (default: from --prefer)");
   std::vector<std::string> positional;
   bool help = false;
   if (Status s = flags.Parse(args, &positional, &help); !s.ok()) return Fail(s.message(), 2);
@@ -443,6 +445,14 @@ int RunMapping(const std::vector<std::string>& args) {
   }
   if (!preference) return Fail("--prefer: '" + prefer + "' is not safety or mcc", 2);
   options.meshing.weak_surface_weight = mapping::MeshingOptionsFor(*preference).weak_surface_weight;
+  // The preference's grid rule and point choice, unless given.
+  if (!flags.WasSet("occupy-surface-voxels")) {
+    options.mesh_to_grid.occupy_surface_voxels =
+        mapping::MeshToGridOptionsFor(*preference).occupy_surface_voxels;
+  }
+  if (!flags.WasSet("keep-unchecked")) {
+    options.sparse.keep_unchecked_points = mapping::KeepUncheckedPointsFor(*preference);
+  }
   // -1 = not given; any other negative value is rejected by MeshingOptions::IsValid.
   if (weak_surface_weight != -1.0) options.meshing.weak_surface_weight = weak_surface_weight;
   options.sparse.target_points_per_keyframe = static_cast<int>(points_per_keyframe);

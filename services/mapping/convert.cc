@@ -182,18 +182,22 @@ Result<BuildRequest> BuildFromProto(const v1::BuildMapRequest& request) {
                                      std::to_string(static_cast<int>(request.unknown())));
   }
 
+  mapping::MapPreference preference = mapping::MapPreference::kSafety;
   switch (request.prefer()) {
     case v1::MAP_PREFERENCE_UNSPECIFIED:
     case v1::MAP_PREFERENCE_SAFETY:
-      out.meshing = mapping::MeshingOptionsFor(mapping::MapPreference::kSafety);
       break;
     case v1::MAP_PREFERENCE_MCC:
-      out.meshing = mapping::MeshingOptionsFor(mapping::MapPreference::kMcc);
+      preference = mapping::MapPreference::kMcc;
       break;
     default:
       return Status::InvalidArgument("prefer: unknown value " +
                                      std::to_string(static_cast<int>(request.prefer())));
   }
+  const mapping::BuildOptions preferred = mapping::BuildOptions::For(preference);
+  out.meshing = *preferred.meshing;
+  out.mesh_to_grid = *preferred.mesh_to_grid;
+  out.keep_unchecked_points = *preferred.keep_unchecked_points;
 
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const v1::SparseMeshOptions& s = request.sparse_mesh();

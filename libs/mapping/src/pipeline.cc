@@ -127,10 +127,40 @@ Result<bool> MappingPipeline::AddFrame(const cv::Mat& left, const cv::Mat& right
   return is_keyframe;
 }
 
+MeshToGridOptions MeshToGridOptionsFor(MapPreference preference) {
+  MeshToGridOptions o;
+  o.free_requires_traversal = true;
+  o.carve_radius_voxels = 1;
+  o.occupy_surface_voxels = preference == MapPreference::kSafety;
+  return o;
+}
+
+bool KeepUncheckedPointsFor(MapPreference preference) {
+  return preference != MapPreference::kSafety;
+}
+
+void ApplyMapPreference(MapPreference preference, MappingPipelineOptions* options) {
+  options->meshing = MeshingOptionsFor(preference);
+  options->mesh_to_grid = MeshToGridOptionsFor(preference);
+  options->sparse.keep_unchecked_points = KeepUncheckedPointsFor(preference);
+}
+
+BuildOptions BuildOptions::For(MapPreference preference) {
+  BuildOptions o;
+  o.meshing = MeshingOptionsFor(preference);
+  o.mesh_to_grid = MeshToGridOptionsFor(preference);
+  o.keep_unchecked_points = KeepUncheckedPointsFor(preference);
+  return o;
+}
+
 bool BuildOptions::IsValid(std::string* why) const {
   std::string sub;
   if (meshing.has_value() && !meshing->IsValid(&sub)) {
     if (why != nullptr) *why = "meshing." + sub;
+    return false;
+  }
+  if (mesh_to_grid.has_value() && !mesh_to_grid->IsValid(&sub)) {
+    if (why != nullptr) *why = "mesh_to_grid." + sub;
     return false;
   }
   if (min_visibility < 1 || min_visibility > 100) {
@@ -144,8 +174,9 @@ bool BuildOptions::IsValid(std::string* why) const {
 
 namespace {
 
-std::vector<MapPoint> VisiblePoints(const SparsePointCloud& sparse, int min_visibility) {
-  std::vector<MapPoint> points = sparse.Points();
+std::vector<MapPoint> VisiblePoints(const SparsePointCloud& sparse, int min_visibility,
+                                    bool keep_unchecked_points) {
+  std::vector<MapPoint> points = sparse.Points(keep_unchecked_points);
   if (min_visibility > 1) {
     std::erase_if(points, [&](const MapPoint& p) {
       return static_cast<int>(p.keyframes.size()) < min_visibility;
@@ -161,7 +192,8 @@ GridGeometry MappingPipeline::GeometryAround(double resolution, double padding_m
   std::vector<MapPoint> points;
   std::vector<KeyframeView> views;
   if (impl_->sparse) {
-    points = VisiblePoints(*impl_->sparse, min_visibility);
+    points =
+        VisiblePoints(*impl_->sparse, min_visibility, impl_->options.sparse.keep_unchecked_points);
     views = impl_->sparse->keyframes();
   } else {
     for (size_t i = 0; i < impl_->keyframe_poses.size(); ++i) {
@@ -193,7 +225,13 @@ Result<MethodMap> MappingPipeline::Build(MappingMethod method, const GridGeometr
   if (method == MappingMethod::kSparseMesh) {
     if (!impl_->sparse) return Status::FailedPrecondition("the pipeline runs no sparse mesher");
     const SparsePointCloud& sparse = *impl_->sparse;
-    out.points = VisiblePoints(sparse, options.min_visibility);
+    const bool keep_unchecked =
+        options.keep_unchecked_points.value_or(impl_->options.sparse.keep_unchecked_points);
+    out.points = VisiblePoints(sparse, options.min_visibility, keep_unchecked);
+    // A session too short to check any point (a single keyframe, say) meshes what it has.
+    if (!keep_unchecked && out.points.size() < 4) {
+      out.points = VisiblePoints(sparse, options.min_visibility, true);
+    }
     out.keyframe_views = sparse.keyframes();
     if (out.points.size() < 4) {
       return Status::FailedPrecondition(
@@ -219,8 +257,9 @@ Result<MethodMap> MappingPipeline::Build(MappingMethod method, const GridGeometr
     for (const MapPoint& p : sight_points) {
       out.lines_of_sight += static_cast<int64_t>(p.keyframes.size());
     }
-    Result<OccupancyGrid> grid = MeshToOccupancy(out.meshing, sight_points, out.keyframe_views,
-                                                 geometry, impl_->options.mesh_to_grid);
+    Result<OccupancyGrid> grid =
+        MeshToOccupancy(out.meshing, sight_points, out.keyframe_views, geometry,
+                        options.mesh_to_grid.value_or(impl_->options.mesh_to_grid));
     if (!grid.ok()) return Status(grid.status().code(), name + ": " + grid.status().message());
     out.grid = std::move(grid).value();
     out.to_grid_ms = MsSince(stage);

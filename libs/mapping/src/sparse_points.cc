@@ -190,18 +190,22 @@ void SparsePointCloud::Reset() {
   stats_ = SparsePointsStats();
 }
 
-bool SparsePointCloud::Accepted(const Track& t) const {
+bool SparsePointCloud::Accepted(const Track& t, bool keep_unchecked_points) const {
   if (options_.verify_window_keyframes == 0 || t.keyframes.size() >= 2 || t.supported) {
     return true;
   }
-  return t.checks == 0 && options_.keep_unchecked_points;
+  return t.checks == 0 && keep_unchecked_points;
 }
 
 std::vector<MapPoint> SparsePointCloud::Points() const {
+  return Points(options_.keep_unchecked_points);
+}
+
+std::vector<MapPoint> SparsePointCloud::Points(bool keep_unchecked_points) const {
   std::vector<MapPoint> points;
   points.reserve(tracks_.size());
   for (const Track& t : tracks_) {
-    if (Accepted(t)) points.push_back({t.p_world, t.keyframes});
+    if (Accepted(t, keep_unchecked_points)) points.push_back({t.p_world, t.keyframes});
   }
   return points;
 }
@@ -231,7 +235,7 @@ void SparsePointCloud::AddSightLine(const Eigen::Vector3d& p_world, int keyframe
 
 int64_t SparsePointCloud::num_accepted_points() const {
   int64_t n = 0;
-  for (const Track& t : tracks_) n += Accepted(t) ? 1 : 0;
+  for (const Track& t : tracks_) n += Accepted(t, options_.keep_unchecked_points) ? 1 : 0;
   return n;
 }
 

@@ -344,6 +344,9 @@ TEST(SparsePointsTest, VerificationRejectsSingleViewOutliers) {
   }
   EXPECT_EQ(cloud->num_points(), 81);
   EXPECT_EQ(cloud->Points().size(), 80u);
+  // A map preference can ask for the unchecked points per call.
+  EXPECT_EQ(cloud->Points(true).size(), 81u);
+  EXPECT_EQ(cloud->Points(false).size(), 80u);
 }
 
 // The stereo matches that were not selected but that a neighbouring keyframe reproduced become

@@ -208,6 +208,9 @@ class SparsePointCloud {
   // and every keyframe's optical centre. With verification on (verify_window_keyframes > 0) the
   // single-view points rejected by step 6 are left out; num_points() still counts them.
   std::vector<MapPoint> Points() const;
+  // The same with SparsePointsOptions::keep_unchecked_points given for this call (a map
+  // preference decides it per build).
+  std::vector<MapPoint> Points(bool keep_unchecked_points) const;
   // Every point, the rejected single-view ones included: the lines of sight that observed free
   // space (a rejected point's depth is doubtful, the space in front of it was still seen).
   std::vector<MapPoint> AllPoints() const;
@@ -251,7 +254,7 @@ class SparsePointCloud {
     std::vector<char> in_sight_lines;  // already added to extra_sight_lines_
   };
   struct Extractors;
-  bool Accepted(const Track& t) const;
+  bool Accepted(const Track& t, bool keep_unchecked_points) const;
 
   SparsePointCloud(const camera::RectifiedStereo& rig, const SparsePointsOptions& options);
   Result<int> AddObservationsTimed(const std::vector<StereoObservation>& observations,

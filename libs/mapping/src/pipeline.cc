@@ -192,8 +192,8 @@ GridGeometry MappingPipeline::GeometryAround(double resolution, double padding_m
   std::vector<MapPoint> points;
   std::vector<KeyframeView> views;
   if (impl_->sparse) {
-    points =
-        VisiblePoints(*impl_->sparse, min_visibility, impl_->options.sparse.keep_unchecked_points);
+    // Every point either preference may mesh, so one box fits both.
+    points = VisiblePoints(*impl_->sparse, min_visibility, /*keep_unchecked_points=*/true);
     views = impl_->sparse->keyframes();
   } else {
     for (size_t i = 0; i < impl_->keyframe_poses.size(); ++i) {

@@ -219,7 +219,8 @@ class MappingPipeline {
                           const ProgressCallback& progress = {});
 
   // The grid around the keyframe camera centres and the points seen by >= min_visibility
-  // keyframes, grown by `padding_m` (GridGeometryAround). The geometry only: check its
+  // keyframes (the unchecked ones included, whatever the preference), grown by `padding_m`
+  // (GridGeometryAround). The geometry only: check its
   // num_voxels() against a limit before building.
   GridGeometry GeometryAround(double resolution, double padding_m, int min_visibility = 1) const;
 

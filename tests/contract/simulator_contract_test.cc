@@ -655,14 +655,17 @@ TEST_F(SimulatorContractTest, LoopbackPortAnswersHealthChecksAndRpcs) {
 }
 
 TEST_F(SimulatorContractTest, AShortDeadlineExpiresOnALongStep) {
-  ASSERT_TRUE(LoadPreset("room-easy", 60).ok());
+  // 600 frames: a fast machine rendered 60 pairs inside the 200 ms deadline (the step then
+  // succeeded and this test failed); 600 take seconds on any machine.
+  constexpr int kFrames = 600;
+  ASSERT_TRUE(LoadPreset("room-easy", kFrames).ok());
   auto channel = grpc::CreateChannel(server_->target(), grpc::InsecureChannelCredentials());
   // Connect first, so the deadline below times the Step and not the connection set-up.
   ASSERT_TRUE(
       channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(5)));
   auto stub = v1::Simulator::NewStub(channel);
   v1::SimulatorStepRequest request;
-  request.set_frames(60);  // rendering 60 pairs takes far longer than 200 ms
+  request.set_frames(kFrames);  // rendering them takes far longer than 200 ms
   grpc::ClientContext context;
   // Long enough that the server surely receives the call (a call whose deadline passes before
   // it is dispatched is never run), far too short for the step.
@@ -675,17 +678,20 @@ TEST_F(SimulatorContractTest, AShortDeadlineExpiresOnALongStep) {
   EXPECT_LT(elapsed, std::chrono::seconds(2)) << "the client must not wait for the server";
   // The deadline stops the step too: the frames published before it stay published, no more.
   const v1::SimulatorStatus paused = WaitForState(v1::SIMULATOR_STATE_PAUSED);
-  EXPECT_LT(paused.frames_published(), 60u);
+  EXPECT_LT(paused.frames_published(), static_cast<uint64_t>(kFrames));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   EXPECT_EQ(WaitForState(v1::SIMULATOR_STATE_PAUSED).frames_published(), paused.frames_published());
 }
 
 // A LoadScenario whose deadline passes while the player is busy (a long Step) changes nothing.
 TEST_F(SimulatorContractTest, ALoadScenarioPastItsDeadlineChangesNothing) {
-  ASSERT_TRUE(LoadPreset("room-easy", 40).ok());
+  // 200 frames keep the player busy for seconds on any machine (40 could finish within the 100 ms
+  // below + the 0.3 s deadline on a fast one).
+  constexpr int kFrames = 200;
+  ASSERT_TRUE(LoadPreset("room-easy", kFrames).ok());
   std::thread stepper([&] {
     v1::SimulatorStatus status;
-    EXPECT_TRUE(Step(40, &status).ok());
+    EXPECT_TRUE(Step(kFrames, &status).ok());
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(100));  // the step holds the player
   v1::LoadScenarioRequest request;
@@ -699,7 +705,7 @@ TEST_F(SimulatorContractTest, ALoadScenarioPastItsDeadlineChangesNothing) {
   EXPECT_EQ(rpc.error_code(), StatusCode::DEADLINE_EXCEEDED) << rpc.error_message();
   const v1::SimulatorStatus status = GetStatus();
   EXPECT_EQ(status.scenario().name(), "room-easy");
-  EXPECT_EQ(status.frames_published(), 40u);
+  EXPECT_EQ(status.frames_published(), static_cast<uint64_t>(kFrames));
 }
 
 TEST(SimulatorTransportTest, CallingAPortWithoutServerFailsWithinTheDeadline) {

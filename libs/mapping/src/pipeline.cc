@@ -139,18 +139,19 @@ bool KeepUncheckedPointsFor(MapPreference preference) {
   return preference != MapPreference::kSafety;
 }
 
-void ApplyMapPreference(MapPreference preference, MappingPipelineOptions* options) {
-  options->meshing = MeshingOptionsFor(preference);
-  options->mesh_to_grid = MeshToGridOptionsFor(preference);
-  options->sparse.keep_unchecked_points = KeepUncheckedPointsFor(preference);
-}
-
 BuildOptions BuildOptions::For(MapPreference preference) {
   BuildOptions o;
   o.meshing = MeshingOptionsFor(preference);
   o.mesh_to_grid = MeshToGridOptionsFor(preference);
   o.keep_unchecked_points = KeepUncheckedPointsFor(preference);
   return o;
+}
+
+void ApplyMapPreference(MapPreference preference, MappingPipelineOptions* options) {
+  const BuildOptions preferred = BuildOptions::For(preference);
+  options->meshing = *preferred.meshing;
+  options->mesh_to_grid = *preferred.mesh_to_grid;
+  options->sparse.keep_unchecked_points = *preferred.keep_unchecked_points;
 }
 
 bool BuildOptions::IsValid(std::string* why) const {

@@ -405,10 +405,12 @@ int RunMapping(const std::vector<std::string>& args) {
   flags.AddDouble("mesh-lambda", &options.meshing.lambda_quality,
                   "sparse-mesh: weight of the surface-quality term");
   std::string prefer = "safety";
-  flags.AddString("prefer", &prefer,
-                  "sparse-mesh: safety (fewer missed collisions: weakly supported surfaces, "
-                  "voxels touching the mesh occupied, only checked points meshed; the default) "
-                  "or mcc (the paper's weights: the best MCC)");
+  flags.AddString(
+      "prefer", &prefer,
+      "sparse-mesh: safety (fewer missed collisions: weakly supported surfaces, "
+      "voxels touching the mesh occupied, only checked points meshed, far single-view points "
+      "seen through a surface dropped; the default) "
+      "or mcc (the paper's weights: the best MCC)");
   double weak_surface_weight = -1.0;
   flags.AddDouble("weak-surface-weight", &weak_surface_weight,
                   "sparse-mesh: extra weight of a line of sight at a free-space-support jump "
@@ -427,6 +429,13 @@ int RunMapping(const std::vector<std::string>& args) {
                 "sparse-mesh: apply every re-observation of an existing point, beyond the target");
   flags.AddBool("occupy-surface-voxels", &options.mesh_to_grid.occupy_surface_voxels,
                 "sparse-mesh: voxels touching the mesh are occupied (default: from --prefer)");
+  double occlusion_range = -1.0;
+  flags.AddDouble("occlusion-check-range", &occlusion_range,
+                  "sparse-mesh: single-view points farther than this from their keyframe are "
+                  "dropped if seen through a surface of the other points' mesh [m] (0 = off; "
+                  "default: from --prefer, 2.5 for safety)");
+  flags.AddDouble("occlusion-check-margin", &options.occlusion_check.margin_m,
+                  "sparse-mesh: the last part of such a line of sight that is not checked [m]");
   std::vector<std::string> positional;
   bool help = false;
   if (Status s = flags.Parse(args, &positional, &help); !s.ok()) return Fail(s.message(), 2);
@@ -452,6 +461,14 @@ int RunMapping(const std::vector<std::string>& args) {
   }
   if (!flags.WasSet("keep-unchecked")) {
     options.sparse.keep_unchecked_points = mapping::KeepUncheckedPointsFor(*preference);
+  }
+  options.occlusion_check.enabled = mapping::OcclusionCheckFor(*preference).enabled;
+  if (occlusion_range == 0.0) {
+    options.occlusion_check.enabled = false;
+  } else if (occlusion_range != -1.0) {
+    // Any other non-positive value is rejected by OcclusionCheckOptions::IsValid.
+    options.occlusion_check.enabled = true;
+    options.occlusion_check.min_range_m = occlusion_range;
   }
   // -1 = not given; any other negative value is rejected by MeshingOptions::IsValid.
   if (weak_surface_weight != -1.0) options.meshing.weak_surface_weight = weak_surface_weight;
@@ -600,6 +617,7 @@ int RunMapping(const std::vector<std::string>& args) {
       json.Set(name, "extraction_s", t.extraction_s);
       json.Set(name, "stereo_matching_s", t.matching_s);
       json.Set(name, "merging_s", t.merging_s);
+      json.Set(name, "occlusion_check_s", t.occlusion_check_s);
       json.Set(name, "meshing_s", t.meshing_s);
       json.Set(name, "to_grid_s", t.to_grid_s);
       json.Set(name, "points", static_cast<double>(out->points.size()));
@@ -607,6 +625,9 @@ int RunMapping(const std::vector<std::string>& args) {
       json.Set(name, "observations", static_cast<double>(out->sparse_stats.TotalSelected()));
       json.Set(name, "mesh_triangles", static_cast<double>(out->meshing.mesh.triangles.size()));
       json.Set(name, "inside_cells", static_cast<double>(out->meshing.stats.num_inside_cells));
+      json.Set(name, "occlusion_checked_points",
+               static_cast<double>(out->occlusion_checked_points));
+      json.Set(name, "occluded_points", static_cast<double>(out->occluded_points));
       json.Set(name, "weak_surface_weight", options.meshing.weak_surface_weight);
       json.Set(name, "weak_surface_rays",
                static_cast<double>(out->meshing.stats.weak_surface_rays));
@@ -636,13 +657,17 @@ int RunMapping(const std::vector<std::string>& args) {
     int64_t multi = 0;
     for (const auto& p : out->points) multi += p.keyframes.size() > 1 ? 1 : 0;
     std::printf(
-        "\nsparse-mesh stages: features %.2f s, stereo %.2f s, merge %.2f s, meshing %.2f s, "
-        "to grid %.2f s; %zu points (%lld seen from >1 keyframe), %lld observations, %zu "
-        "triangles, %lld lines of sight for the free space; %lld meshing rays at a support jump\n",
-        t.extraction_s, t.matching_s, t.merging_s, t.meshing_s, t.to_grid_s, out->points.size(),
-        static_cast<long long>(multi), static_cast<long long>(out->sparse_stats.TotalSelected()),
+        "\nsparse-mesh stages: features %.2f s, stereo %.2f s, merge %.2f s, occlusion check "
+        "%.2f s, meshing %.2f s, to grid %.2f s; %zu points (%lld seen from >1 keyframe), %lld "
+        "observations, %zu triangles, %lld lines of sight for the free space; %lld meshing rays "
+        "at a support jump; %lld far single-view points checked, %lld seen through a surface\n",
+        t.extraction_s, t.matching_s, t.merging_s, t.occlusion_check_s, t.meshing_s, t.to_grid_s,
+        out->points.size(), static_cast<long long>(multi),
+        static_cast<long long>(out->sparse_stats.TotalSelected()),
         out->meshing.mesh.triangles.size(), static_cast<long long>(out->lines_of_sight),
-        static_cast<long long>(out->meshing.stats.weak_surface_rays));
+        static_cast<long long>(out->meshing.stats.weak_surface_rays),
+        static_cast<long long>(out->occlusion_checked_points),
+        static_cast<long long>(out->occluded_points));
   }
   if (out->has_octomap) {
     const mapping::OctomapTiming& t = out->octomap_timing;

@@ -198,6 +198,7 @@ Result<BuildRequest> BuildFromProto(const v1::BuildMapRequest& request) {
   out.meshing = *preferred.meshing;
   out.mesh_to_grid = *preferred.mesh_to_grid;
   out.keep_unchecked_points = *preferred.keep_unchecked_points;
+  out.occlusion_check = *preferred.occlusion_check;
 
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const v1::SparseMeshOptions& s = request.sparse_mesh();

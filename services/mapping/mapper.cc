@@ -490,6 +490,7 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(const BuildRequest& request,
   options.meshing = request.meshing;
   options.mesh_to_grid = request.mesh_to_grid;
   options.keep_unchecked_points = request.keep_unchecked_points;
+  options.occlusion_check = request.occlusion_check;
   options.min_visibility = request.min_visibility;
   auto progress = [this](std::string_view stage, double fraction) {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -99,12 +99,14 @@ struct BuildRequest {
   std::optional<Eigen::AlignedBox3d> bounds;
   UnknownHandling unknown = UnknownHandling::kKeepUnknown;
   // SPARSE_MESH: the mesher's options, the grid rules, whether unchecked single-view points are
-  // meshed (all three from the map preference, mapping::BuildOptions::For) and the minimum number
-  // of keyframes that saw a point.
+  // meshed, the occlusion check of far single-view points (all four from the map preference,
+  // mapping::BuildOptions::For) and the minimum number of keyframes that saw a point.
   mapping::MeshingOptions meshing = mapping::MeshingOptionsFor(mapping::MapPreference::kSafety);
   mapping::MeshToGridOptions mesh_to_grid =
       mapping::MeshToGridOptionsFor(mapping::MapPreference::kSafety);
   bool keep_unchecked_points = mapping::KeepUncheckedPointsFor(mapping::MapPreference::kSafety);
+  mapping::OcclusionCheckOptions occlusion_check =
+      mapping::OcclusionCheckFor(mapping::MapPreference::kSafety);
   int min_visibility = 1;
 
   static constexpr double kDefaultPaddingM = 1.0;

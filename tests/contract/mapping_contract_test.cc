@@ -840,6 +840,25 @@ TEST_F(MappingContractTest, KeyframesWithoutNewPointsCostOnlyTheirData) {
   EXPECT_LT(status.points(), 200u) << "the repeated pair must not add points";
 }
 
+// BuildMapRequest.prefer sets every choice of the map preference (mapping::BuildOptions::For).
+TEST(MappingConvertTest, ThePreferenceSetsTheBuildRequest) {
+  v1::BuildMapRequest request;
+  request.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  Result<BuildRequest> safety = BuildFromProto(request);  // unspecified = safety
+  ASSERT_TRUE(safety.ok()) << safety.status().ToString();
+  EXPECT_GT(safety->meshing.weak_surface_weight, 0.0);
+  EXPECT_TRUE(safety->mesh_to_grid.occupy_surface_voxels);
+  EXPECT_FALSE(safety->keep_unchecked_points);
+  EXPECT_TRUE(safety->occlusion_check.enabled);
+  request.set_prefer(v1::MAP_PREFERENCE_MCC);
+  Result<BuildRequest> mcc = BuildFromProto(request);
+  ASSERT_TRUE(mcc.ok()) << mcc.status().ToString();
+  EXPECT_EQ(mcc->meshing.weak_surface_weight, 0.0);
+  EXPECT_FALSE(mcc->mesh_to_grid.occupy_surface_voxels);
+  EXPECT_TRUE(mcc->keep_unchecked_points);
+  EXPECT_FALSE(mcc->occlusion_check.enabled);
+}
+
 TEST(MapperTest, LiveFramesWithGroundTruthBecomeKeyframes) {
   const Data& data = TestData();
   Mapper mapper;

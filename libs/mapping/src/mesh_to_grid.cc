@@ -335,4 +335,42 @@ Result<OccupancyGrid> MeshToOccupancy(const MeshingResult& meshing,
   return grid;
 }
 
+Result<std::vector<bool>> PointsSeenThroughSurfaces(const OccupancyGrid& grid,
+                                                    const std::vector<MapPoint>& points,
+                                                    const std::vector<KeyframeView>& keyframes,
+                                                    double margin_m) {
+  if (!(margin_m >= 0.0) || !std::isfinite(margin_m)) {
+    return Status::InvalidArgument("margin_m: must be finite and >= 0, got " +
+                                   std::to_string(margin_m));
+  }
+  std::unordered_map<int, Eigen::Vector3d> center_of;
+  for (const KeyframeView& k : keyframes) center_of[k.id] = k.center_world;
+  std::vector<bool> seen_through(points.size(), false);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const MapPoint& p = points[i];
+    for (size_t j = 0; j < p.keyframes.size(); ++j) {
+      const auto it = center_of.find(p.keyframes[j]);
+      if (it == center_of.end()) {
+        return Status::InvalidArgument("points[" + std::to_string(i) + "].keyframes[" +
+                                       std::to_string(j) + "]: unknown keyframe id " +
+                                       std::to_string(p.keyframes[j]));
+      }
+      if (seen_through[i]) continue;
+      const Eigen::Vector3d& camera = it->second;
+      const double length = (p.p_world - camera).norm();
+      if (!(length > margin_m)) continue;
+      internal::TraverseVoxels(
+          grid.geometry(), camera, p.p_world, (length - margin_m) / length,
+          [&](const Eigen::Vector3i& index, double) {
+            if (grid.InBounds(index) && grid.at(index) == VoxelState::kOccupied) {
+              seen_through[i] = true;
+              return false;
+            }
+            return true;
+          });
+    }
+  }
+  return seen_through;
+}
+
 }  // namespace mav::mapping

@@ -1,5 +1,8 @@
 #include "mav/mapping/pipeline.h"
 
+#include <algorithm>
+#include <cmath>
+#include <limits>
 #include <optional>
 #include <utility>
 
@@ -55,6 +58,7 @@ bool MappingPipelineOptions::IsValid(std::string* why) const {
   if (!sparse.IsValid(&sub)) return fail("sparse." + sub);
   if (!meshing.IsValid(&sub)) return fail("meshing." + sub);
   if (!mesh_to_grid.IsValid(&sub)) return fail("mesh_to_grid." + sub);
+  if (!occlusion_check.IsValid(&sub)) return fail("occlusion_check." + sub);
   if (!octomap.IsValid(&sub)) return fail("octomap." + sub);
   return true;
 }
@@ -139,11 +143,30 @@ bool KeepUncheckedPointsFor(MapPreference preference) {
   return preference != MapPreference::kSafety;
 }
 
+OcclusionCheckOptions OcclusionCheckFor(MapPreference preference) {
+  OcclusionCheckOptions o;
+  o.enabled = preference == MapPreference::kSafety;
+  return o;
+}
+
+bool OcclusionCheckOptions::IsValid(std::string* why) const {
+  if (!(min_range_m > 0.0) || !std::isfinite(min_range_m)) {
+    if (why != nullptr) *why = "min_range_m: must be finite and > 0 [m]";
+    return false;
+  }
+  if (!(margin_m >= 0.0) || !std::isfinite(margin_m)) {
+    if (why != nullptr) *why = "margin_m: must be finite and >= 0 [m]";
+    return false;
+  }
+  return true;
+}
+
 BuildOptions BuildOptions::For(MapPreference preference) {
   BuildOptions o;
   o.meshing = MeshingOptionsFor(preference);
   o.mesh_to_grid = MeshToGridOptionsFor(preference);
   o.keep_unchecked_points = KeepUncheckedPointsFor(preference);
+  o.occlusion_check = OcclusionCheckFor(preference);
   return o;
 }
 
@@ -152,6 +175,7 @@ void ApplyMapPreference(MapPreference preference, MappingPipelineOptions* option
   options->meshing = *preferred.meshing;
   options->mesh_to_grid = *preferred.mesh_to_grid;
   options->sparse.keep_unchecked_points = *preferred.keep_unchecked_points;
+  options->occlusion_check = *preferred.occlusion_check;
 }
 
 bool BuildOptions::IsValid(std::string* why) const {
@@ -164,6 +188,10 @@ bool BuildOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "mesh_to_grid." + sub;
     return false;
   }
+  if (occlusion_check.has_value() && !occlusion_check->IsValid(&sub)) {
+    if (why != nullptr) *why = "occlusion_check." + sub;
+    return false;
+  }
   if (min_visibility < 1 || min_visibility > 100) {
     if (why != nullptr) {
       *why = "min_visibility: must be in [1, 100], got " + std::to_string(min_visibility);
@@ -174,6 +202,17 @@ bool BuildOptions::IsValid(std::string* why) const {
 }
 
 namespace {
+
+// Distance from a point to the nearest of its keyframes' centres.
+double NearestViewRange(const MapPoint& p, const std::vector<KeyframeView>& views) {
+  double nearest = std::numeric_limits<double>::infinity();
+  for (int id : p.keyframes) {
+    // SparsePointCloud's keyframe ids are their indices.
+    if (id < 0 || static_cast<size_t>(id) >= views.size()) continue;
+    nearest = std::min(nearest, (views[static_cast<size_t>(id)].center_world - p.p_world).norm());
+  }
+  return nearest;
+}
 
 std::vector<MapPoint> VisiblePoints(const SparsePointCloud& sparse, int min_visibility,
                                     bool keep_unchecked_points) {
@@ -240,17 +279,9 @@ Result<MethodMap> MappingPipeline::Build(MappingMethod method, const GridGeometr
           " sparse points (after min_visibility), the Delaunay triangulation needs 4");
     }
     out.per_keyframe_ms = sparse.stats().TotalMs();
-    report("meshing (Delaunay, visibility, graph cut)", 0.1);
-    int64_t stage = MonotonicNowNs();
-    Result<MeshingResult> meshing =
-        BuildMesh(out.points, out.keyframe_views, options.meshing.value_or(impl_->options.meshing));
-    if (!meshing.ok())
-      return Status(meshing.status().code(), name + ": " + meshing.status().message());
-    out.meshing = std::move(meshing).value();
-    out.meshing_ms = MsSince(stage);
-    MAV_RETURN_IF_ERROR(termination.Check("BuildMap (" + name + ", after meshing)"));
-    report("mesh to occupancy grid", 0.7);
-    stage = MonotonicNowNs();
+    const MeshingOptions& meshing_options = options.meshing.value_or(impl_->options.meshing);
+    const MeshToGridOptions& grid_options =
+        options.mesh_to_grid.value_or(impl_->options.mesh_to_grid);
     // Free space from every line of sight: to the rejected single-view points too, and to the
     // verified stereo matches that became no point.
     const std::vector<MapPoint> sight_points =
@@ -258,9 +289,82 @@ Result<MethodMap> MappingPipeline::Build(MappingMethod method, const GridGeometr
     for (const MapPoint& p : sight_points) {
       out.lines_of_sight += static_cast<int64_t>(p.keyframes.size());
     }
+    const OcclusionCheckOptions& occlusion =
+        options.occlusion_check.value_or(impl_->options.occlusion_check);
+    if (occlusion.enabled) {
+      const int64_t stage = MonotonicNowNs();
+      std::vector<MapPoint> trusted, far_single_view;
+      std::vector<size_t> far_index;  // into out.points
+      for (size_t i = 0; i < out.points.size(); ++i) {
+        const MapPoint& p = out.points[i];
+        if (p.keyframes.size() == 1 &&
+            NearestViewRange(p, out.keyframe_views) > occlusion.min_range_m) {
+          far_single_view.push_back(p);
+          far_index.push_back(i);
+        } else {
+          trusted.push_back(p);
+        }
+      }
+      out.occlusion_checked_points = static_cast<int64_t>(far_single_view.size());
+      // Nothing to check, or too few trusted points for a first mesh: every point is meshed.
+      if (!far_single_view.empty() && trusted.size() >= 4) {
+        report("occlusion check (first pass: mesh and grid of the trusted points)", 0.05);
+        Result<MeshingResult> first = BuildMesh(trusted, out.keyframe_views, meshing_options);
+        if (!first.ok()) {
+          return Status(first.status().code(),
+                        name + " (occlusion check): " + first.status().message());
+        }
+        MAV_RETURN_IF_ERROR(termination.Check("BuildMap (" + name + ", after the first pass)"));
+        // Only the occupied voxels matter here. Without a safety margin (which grows occupied
+        // voxels into free ones) the lines of sight only turn unknown voxels free, so the first
+        // grid skips them: the same occupied voxels, and the first pass costs a quarter
+        // (room-easy: 0.33 s instead of 1.30 s).
+        MeshToGridOptions first_options = grid_options;
+        if (first_options.occupied_margin_voxels == 0) {
+          first_options.carve_lines_of_sight = false;
+          first_options.free_near_ray_voxels = -1;
+        }
+        Result<OccupancyGrid> first_grid =
+            MeshToOccupancy(*first, sight_points, out.keyframe_views, geometry, first_options);
+        if (!first_grid.ok()) {
+          return Status(first_grid.status().code(),
+                        name + " (occlusion check): " + first_grid.status().message());
+        }
+        Result<std::vector<bool>> seen_through = PointsSeenThroughSurfaces(
+            *first_grid, far_single_view, out.keyframe_views, occlusion.margin_m);
+        if (!seen_through.ok()) {
+          return Status(seen_through.status().code(),
+                        name + " (occlusion check): " + seen_through.status().message());
+        }
+        // Drop the points seen through a surface; the others keep their order.
+        std::vector<bool> drop(out.points.size(), false);
+        for (size_t i = 0; i < far_index.size(); ++i) {
+          if ((*seen_through)[i]) drop[far_index[i]] = true;
+        }
+        size_t kept = 0;
+        for (size_t i = 0; i < out.points.size(); ++i) {
+          if (drop[i]) continue;
+          if (kept != i) out.points[kept] = std::move(out.points[i]);
+          ++kept;
+        }
+        out.occluded_points = static_cast<int64_t>(out.points.size() - kept);
+        out.points.resize(kept);
+      }
+      out.occlusion_check_ms = MsSince(stage);
+      MAV_RETURN_IF_ERROR(termination.Check("BuildMap (" + name + ", after the occlusion check)"));
+    }
+    report("meshing (Delaunay, visibility, graph cut)", 0.1);
+    int64_t stage = MonotonicNowNs();
+    Result<MeshingResult> meshing = BuildMesh(out.points, out.keyframe_views, meshing_options);
+    if (!meshing.ok())
+      return Status(meshing.status().code(), name + ": " + meshing.status().message());
+    out.meshing = std::move(meshing).value();
+    out.meshing_ms = MsSince(stage);
+    MAV_RETURN_IF_ERROR(termination.Check("BuildMap (" + name + ", after meshing)"));
+    report("mesh to occupancy grid", 0.7);
+    stage = MonotonicNowNs();
     Result<OccupancyGrid> grid =
-        MeshToOccupancy(out.meshing, sight_points, out.keyframe_views, geometry,
-                        options.mesh_to_grid.value_or(impl_->options.mesh_to_grid));
+        MeshToOccupancy(out.meshing, sight_points, out.keyframe_views, geometry, grid_options);
     if (!grid.ok()) return Status(grid.status().code(), name + ": " + grid.status().message());
     out.grid = std::move(grid).value();
     out.to_grid_ms = MsSince(stage);
@@ -305,14 +409,17 @@ Result<MappingOutput> MappingPipeline::Finish(const GridGeometry& geometry) {
     out.meshing = std::move(map.meshing);
     out.sparse_mesh_grid = std::move(map.grid);
     out.lines_of_sight = map.lines_of_sight;
+    out.occlusion_checked_points = map.occlusion_checked_points;
+    out.occluded_points = map.occluded_points;
     out.sparse_stats = sparse.stats();
     SparseMeshTiming& t = out.sparse_mesh_timing;
     t.extraction_s = sparse.stats().TotalExtractionMs() * 1e-3;
     t.matching_s = sparse.stats().TotalMatchingMs() * 1e-3;
     t.merging_s = sparse.stats().TotalMergingMs() * 1e-3;
+    t.occlusion_check_s = map.occlusion_check_ms * 1e-3;
     t.meshing_s = map.meshing_ms * 1e-3;
     t.to_grid_s = map.to_grid_ms * 1e-3;
-    t.total_s = map.per_keyframe_ms * 1e-3 + t.meshing_s + t.to_grid_s;
+    t.total_s = map.per_keyframe_ms * 1e-3 + t.occlusion_check_s + t.meshing_s + t.to_grid_s;
   }
 
   if (impl_->octomap) {

@@ -122,8 +122,8 @@ TEST_F(MavEvalCli, NoStereoFramesSaysWhyNamingTheDirectory) {
   EXPECT_NE(r.output.find("share no timestamp"), std::string::npos) << r.output;
 }
 
-// The map preference and the weak-surface weight are checked before any work, naming the flag or
-// the field.
+// The map preference, the weak-surface weight and the occlusion check's range and margin are
+// checked before any work, naming the flag or the field.
 TEST_F(MavEvalCli, MappingPreferenceIsValidated) {
   RunResult r = RunTool("mav-eval", "mapping --method sparse-mesh --prefer fast --data " + set_);
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -131,6 +131,16 @@ TEST_F(MavEvalCli, MappingPreferenceIsValidated) {
   r = RunTool("mav-eval", "mapping --method sparse-mesh --weak-surface-weight -2 --data " + set_);
   EXPECT_NE(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("weak_surface_weight must be >= 0"), std::string::npos) << r.output;
+  r = RunTool("mav-eval",
+              "mapping --method sparse-mesh --occlusion-check-range -1.5 --data " + set_);
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("occlusion_check.min_range_m: must be finite and > 0"), std::string::npos)
+      << r.output;
+  r = RunTool("mav-eval",
+              "mapping --method sparse-mesh --occlusion-check-margin -1 --data " + set_);
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("occlusion_check.margin_m: must be finite and >= 0"), std::string::npos)
+      << r.output;
 }
 
 // The sparse-mesh grid is written in the stack's own format too, and the weak-surface view gate and

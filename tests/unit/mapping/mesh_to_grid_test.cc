@@ -280,5 +280,47 @@ TEST(GridGeometryAroundTest, CoversInputWithPadding) {
   EXPECT_GE(top.z(), 4.2 - 1e-9);
 }
 
+// A slab of occupied voxels at z in [1.0, 1.2) between a camera at the origin and points above it:
+// the ones behind the slab, beyond the margin, were seen through it.
+TEST(PointsSeenThroughSurfacesTest, FlagsPointsBehindAnOccupiedSlab) {
+  GridGeometry g;
+  g.origin = Eigen::Vector3d(-1, -1, -0.5);
+  g.resolution = 0.1;
+  g.size = Eigen::Vector3i(20, 20, 30);  // z up to 2.5
+  OccupancyGrid grid(g, VoxelState::kFree);
+  for (int k = 15; k < 17; ++k)
+    for (int j = 0; j < 20; ++j)
+      for (int i = 0; i < 20; ++i) grid.set(Eigen::Vector3i(i, j, k), VoxelState::kOccupied);
+  const std::vector<KeyframeView> keyframes = {{7, Eigen::Vector3d(0.01, 0.02, 0.0)},
+                                               {9, Eigen::Vector3d(0.01, 0.02, 1.5)}};
+  std::vector<MapPoint> points = {
+      {Eigen::Vector3d(0.05, 0.05, 1.8), {7}},     // behind the slab: seen through it
+      {Eigen::Vector3d(0.05, 0.05, 0.9), {7}},     // in front of it
+      {Eigen::Vector3d(0.05, 0.05, 1.25), {7}},    // the slab is within the margin before it
+      {Eigen::Vector3d(0.05, 0.05, 1.8), {9}},     // seen from above the slab
+      {Eigen::Vector3d(0.05, 0.05, 1.8), {9, 7}},  // one of its lines of sight crosses it
+      {Eigen::Vector3d(5.0, 5.0, 5.0), {7}},       // outside the grid: only free voxels crossed
+  };
+  auto seen = PointsSeenThroughSurfaces(grid, points, keyframes, 0.3);
+  ASSERT_TRUE(seen.ok()) << seen.status().ToString();
+  EXPECT_EQ(*seen, (std::vector<bool>{true, false, false, false, true, false}));
+  // Without a margin the third point's line of sight reaches the slab too.
+  seen = PointsSeenThroughSurfaces(grid, points, keyframes, 0.0);
+  ASSERT_TRUE(seen.ok());
+  EXPECT_TRUE((*seen)[2]);
+  EXPECT_FALSE((*seen)[1]);
+
+  points.push_back({Eigen::Vector3d(0, 0, 1), {8}});
+  seen = PointsSeenThroughSurfaces(grid, points, keyframes, 0.3);
+  ASSERT_FALSE(seen.ok());
+  EXPECT_EQ(seen.status().code(), StatusCode::kInvalidArgument);
+  EXPECT_NE(seen.status().message().find("points[6].keyframes[0]: unknown keyframe id 8"),
+            std::string::npos)
+      << seen.status().message();
+  seen = PointsSeenThroughSurfaces(grid, {}, keyframes, -0.1);
+  ASSERT_FALSE(seen.ok());
+  EXPECT_NE(seen.status().message().find("margin_m"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace mav::mapping

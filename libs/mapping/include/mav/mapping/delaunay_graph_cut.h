@@ -93,9 +93,10 @@ struct MeshingOptions {
 // "Missed-collision budget"):
 //  * kSafety (the stack's default): fewer missed collisions, i.e. fewer occupied voxels that the
 //    map calls free. Here: weakly supported surfaces on (weak_surface_weight = 4); the pipeline
-//    adds the conservative grid and meshes only checked points (MeshToGridOptionsFor,
-//    KeepUncheckedPointsFor in pipeline.h). On the full rendered rooms the misses go from
-//    2.3-4.1 % to 0.41-0.78 % (a fifth or less), at 0.06-0.11 lower MCC;
+//    adds the conservative grid, meshes only checked points and drops far single-view points
+//    seen through a surface (MeshToGridOptionsFor, KeepUncheckedPointsFor, OcclusionCheckFor in
+//    pipeline.h). On the full rendered rooms the misses go from 2.3-4.1 % to 0.12-0.47 % (a fifth
+//    or less), at 0.07-0.11 lower MCC;
 //  * kMcc: the paper's Labatut et al. weights alone, the best collision-check MCC.
 enum class MapPreference { kSafety, kMcc };
 const char* MapPreferenceName(MapPreference preference);  // "safety", "mcc"

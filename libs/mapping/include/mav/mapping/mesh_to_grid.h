@@ -70,4 +70,15 @@ Result<OccupancyGrid> MeshToOccupancy(const MeshingResult& meshing,
                                       const GridGeometry& geometry,
                                       const MeshToGridOptions& options = {});
 
+// The points seen through a surface of `grid`: true for a point one of whose lines of sight
+// (keyframe centre to point, 3D DDA) crosses an occupied voxel more than `margin_m` before the
+// point. Such a point cannot have been seen where it is: a stereo mismatch triangulated behind the
+// surface, e.g. on a textureless ceiling (the pipeline's occlusion check, pipeline.h). Voxels
+// outside the grid count as not occupied. INVALID_ARGUMENT for a margin that is negative or not
+// finite, or an unknown keyframe id ("points[i].keyframes[j]: ...").
+Result<std::vector<bool>> PointsSeenThroughSurfaces(const OccupancyGrid& grid,
+                                                    const std::vector<MapPoint>& points,
+                                                    const std::vector<KeyframeView>& keyframes,
+                                                    double margin_m);
+
 }  // namespace mav::mapping

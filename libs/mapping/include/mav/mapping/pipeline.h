@@ -57,12 +57,33 @@ const char* MappingMethodName(MappingMethod method);  // "sparse-mesh", "octomap
 //  * kSafety: voxels touching the mesh are occupied (MeshToGridOptions::occupy_surface_voxels, the
 //    conservative rasterisation the ground truth uses too) and the unchecked single-view points are
 //    left out of the mesh (SparsePointsOptions::keep_unchecked_points = false; their lines of sight
-//    still free space). With the weak surfaces this brings the full presets' missed collisions to
-//    0.41-0.78 % (two seeds; the budget of 0.5 % is met on three of the six).
-//  * kMcc: neither, i.e. the best collision-check MCC.
+//    still free space), and far single-view points seen through a surface are dropped
+//    (OcclusionCheckOptions below). With the weak surfaces this brings the full presets' missed
+//    collisions to 0.12-0.47 % (two seeds; the budget of 0.5 % is met on all six).
+//  * kMcc: none of these, i.e. the best collision-check MCC.
 // The pipeline's grid options (traversal rule, thick lines of sight) with the preference applied.
 MeshToGridOptions MeshToGridOptionsFor(MapPreference preference);
 bool KeepUncheckedPointsFor(MapPreference preference);
+
+// The occlusion check of far single-view points (docs/mapping.md, "Occlusion check"). A point seen
+// by one keyframe only, from farther than `min_range_m`, has a depth too uncertain to trust on its
+// own (stereo depth noise grows as Z^2: a quarter pixel of disparity is ~3 cm at 2.5 m and ~12 cm
+// at 5 m on EuRoC's rig, against the mesher's 5 cm sink distance). Build() then meshes in two
+// passes: first the other points alone, rasterised like the map; a far single-view point whose
+// line of sight crosses an occupied voxel of that first grid more than `margin_m` before the point
+// was seen through a surface and is left out of the final mesh (PointsSeenThroughSurfaces,
+// mesh_to_grid.h; its line of sight still frees space up to the first surface, as every rejected
+// point's does). The others fill in what the first pass lacked. This removes the stereo mismatches
+// on room-hard's textureless ceiling, triangulated 0.2-1.4 m behind it, whose lines of sight
+// freed the slab: the missed collisions there fall from 0.78 / 0.59 % to 0.12 / 0.31 %.
+struct OcclusionCheckOptions {
+  bool enabled = false;
+  double min_range_m = 2.5;  // [m], > 0
+  double margin_m = 0.3;     // [m], >= 0: a half-pixel disparity error at 5.5 m
+  // False with the offending field named in *why ("min_range_m: ...").
+  bool IsValid(std::string* why) const;
+};
+OcclusionCheckOptions OcclusionCheckFor(MapPreference preference);  // on for kSafety only
 
 struct MappingPipelineOptions {
   bool run_sparse_mesh = true;
@@ -86,6 +107,7 @@ struct MappingPipelineOptions {
   // in front of the surfaces (full presets: room-easy 0.783 -> 0.805, medium 0.716 -> 0.745, hard
   // 0.619 -> 0.684 MCC; docs/mapping.md, "Fourth pass").
   MeshToGridOptions mesh_to_grid = MeshToGridOptionsFor(MapPreference::kSafety);
+  OcclusionCheckOptions occlusion_check = OcclusionCheckFor(MapPreference::kSafety);
   OctomapMapperOptions octomap;
   // Free space also from the verified stereo matches that were not selected as points
   // (SparsePointCloud::SightPoints()); false: only from the points (AllPoints(), the rejected
@@ -97,17 +119,19 @@ struct MappingPipelineOptions {
   bool IsValid(std::string* why) const;
 };
 
-// Sets meshing, mesh_to_grid and sparse.keep_unchecked_points of `options` to the preference's.
+// Sets meshing, mesh_to_grid, occlusion_check and sparse.keep_unchecked_points of `options` to the
+// preference's.
 void ApplyMapPreference(MapPreference preference, MappingPipelineOptions* options);
 
 // Wall-clock seconds of the sparse-mesh method, per stage.
 struct SparseMeshTiming {
-  double extraction_s = 0;  // feature extraction, all keyframes
-  double matching_s = 0;    // stereo matching + sub-pixel refinement, all keyframes
-  double merging_s = 0;     // re-observation, selection, triangulation, all keyframes
-  double meshing_s = 0;     // BuildMesh (Delaunay + visibility + graph cut + extraction)
-  double to_grid_s = 0;     // MeshToOccupancy
-  double total_s = 0;       // the sum: the whole data set
+  double extraction_s = 0;       // feature extraction, all keyframes
+  double matching_s = 0;         // stereo matching + sub-pixel refinement, all keyframes
+  double merging_s = 0;          // re-observation, selection, triangulation, all keyframes
+  double occlusion_check_s = 0;  // the first pass of the occlusion check (mesh, grid, check)
+  double meshing_s = 0;          // BuildMesh (Delaunay + visibility + graph cut + extraction)
+  double to_grid_s = 0;          // MeshToOccupancy
+  double total_s = 0;            // the sum: the whole data set
 };
 
 // Wall-clock seconds of the OctoMap baseline, per stage.
@@ -131,6 +155,8 @@ struct MappingOutput {
   MeshingResult meshing;                     // mesh, labelled tetrahedra, stats
   OccupancyGrid sparse_mesh_grid;            // on the geometry given to Finish()
   int64_t lines_of_sight = 0;                // given to MeshToOccupancy (SightPoints())
+  int64_t occlusion_checked_points = 0;      // MethodMap's
+  int64_t occluded_points = 0;
   SparsePointsStats sparse_stats;
   SparseMeshTiming sparse_mesh_timing;
 
@@ -146,12 +172,14 @@ struct BuildOptions {
   // that saw a point for it to be meshed ([1, 100]; the lines of sight are kept for all).
   std::optional<MeshingOptions> meshing;
   int min_visibility = 1;
-  // The grid rules and whether unchecked single-view points are meshed (unset: the pipeline's;
-  // when fewer than 4 checked points exist, e.g. after one keyframe, the unchecked ones are).
+  // The grid rules, whether unchecked single-view points are meshed (when fewer than 4 checked
+  // points exist, e.g. after one keyframe, the unchecked ones are) and the occlusion check (unset:
+  // the pipeline's).
   std::optional<MeshToGridOptions> mesh_to_grid;
   std::optional<bool> keep_unchecked_points;
+  std::optional<OcclusionCheckOptions> occlusion_check;
 
-  // All three from a map preference (the mapping service's BuildMapRequest.prefer).
+  // All four from a map preference (the mapping service's BuildMapRequest.prefer).
   static BuildOptions For(MapPreference preference);
   bool IsValid(std::string* why) const;
 };
@@ -163,18 +191,25 @@ struct MethodMap {
   OccupancyGrid grid;  // on the geometry given to Build()
 
   // Sparse mesh only.
-  std::vector<MapPoint> points;              // the points meshed (after min_visibility)
+  std::vector<MapPoint> points;              // the points meshed (after min_visibility and the
+                                             // occlusion check)
   std::vector<KeyframeView> keyframe_views;  // camera centres (ids index the keyframes)
   MeshingResult meshing;                     // mesh, labelled tetrahedra, stats
   int64_t lines_of_sight = 0;                // given to MeshToOccupancy (SightPoints())
+  // The occlusion check: far single-view points checked, and of them left out (seen through a
+  // surface of the first pass).
+  int64_t occlusion_checked_points = 0;
+  int64_t occluded_points = 0;
 
   // Octomap only: range points inserted over all keyframes.
   int64_t range_points = 0;
 
   // Wall time, ms: the method's per-keyframe work over all keyframes so far, and this build's
-  // stages (meshing = Delaunay + visibility + graph cut + surface; prune = the octree's final
-  // pruning; to_grid = mesh or octree -> grid).
+  // stages (occlusion_check = its first pass: mesh, grid and check; meshing = Delaunay +
+  // visibility + graph cut + surface; prune = the octree's final pruning; to_grid = mesh or octree
+  // -> grid).
   double per_keyframe_ms = 0;
+  double occlusion_check_ms = 0;
   double meshing_ms = 0;
   double prune_ms = 0;
   double to_grid_ms = 0;
@@ -213,7 +248,8 @@ class MappingPipeline {
   // or with fewer than 4 points to mesh ("empty map: ..."); InvalidArgument naming the field
   // ("geometry: ...", "meshing.<f>: ..."); the mesher's errors with "sparse-mesh: " in front.
   // `termination` is checked between the stages (DEADLINE_EXCEEDED / CANCELLED: nothing is
-  // kept); `progress` reports "meshing" (0.1), "mesh to grid" (0.7), "octree to grid" (0.2).
+  // kept); `progress` reports "occlusion check" (0.05, only when it runs), "meshing" (0.1), "mesh
+  // to grid" (0.7), "octree to grid" (0.2).
   Result<MethodMap> Build(MappingMethod method, const GridGeometry& geometry,
                           const BuildOptions& options = {}, const Termination& termination = {},
                           const ProgressCallback& progress = {});

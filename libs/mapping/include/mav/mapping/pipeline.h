@@ -65,7 +65,7 @@ const char* MappingMethodName(MappingMethod method);  // "sparse-mesh", "octomap
 MeshToGridOptions MeshToGridOptionsFor(MapPreference preference);
 bool KeepUncheckedPointsFor(MapPreference preference);
 
-// The occlusion check of far single-view points (docs/mapping.md, "Occlusion check"). A point seen
+// The occlusion check of far single-view points (docs/mapping.md, "Sixth pass"). A point seen
 // by one keyframe only, from farther than `min_range_m`, has a depth too uncertain to trust on its
 // own (stereo depth noise grows as Z^2: a quarter pixel of disparity is ~3 cm at 2.5 m and ~12 cm
 // at 5 m on EuRoC's rig, against the mesher's 5 cm sink distance). Build() then meshes in two

@@ -145,6 +145,7 @@ Result<PlayerStatus> Player::Pause() {
 
 Result<PlayerStatus> Player::Step(int64_t frames, const Termination& deadline) {
   std::lock_guard<std::mutex> command(command_mutex_);
+  int64_t first_frame = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (state_ == PlayerState::kIdle) {
@@ -157,6 +158,7 @@ Result<PlayerStatus> Player::Step(int64_t frames, const Termination& deadline) {
       return Status::InvalidArgument("frames: must be >= 1, got " + std::to_string(frames));
     }
     if (state_ == PlayerState::kFinished) RewindLocked();
+    first_frame = next_frame_;
     const int64_t left = source_->info().frames - next_frame_;
     if (frames > left) {
       return Status::OutOfRange("frames: " + std::to_string(frames) + " requested but only " +
@@ -173,6 +175,14 @@ Result<PlayerStatus> Player::Step(int64_t frames, const Termination& deadline) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (state_ == PlayerState::kRunning) state_ = PlayerState::kPaused;
   if (!stepped.ok() && stepped.code() != StatusCode::kCancelled) return stepped;
+  // The playback loop stops quietly when the deadline passes; the caller must still hear that the
+  // step was cut short (a Pause or a Load cancels it instead, and that is not an error).
+  const int64_t published = next_frame_ - first_frame;
+  if (published < frames && deadline.expired()) {
+    return Status::DeadlineExceeded("Step: the deadline passed after " + std::to_string(published) +
+                                    " of " + std::to_string(frames) +
+                                    " frames (those stay published)");
+  }
   return StatusLocked();
 }
 

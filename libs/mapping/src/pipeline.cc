@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <optional>
 #include <utility>
 
@@ -203,17 +202,6 @@ bool BuildOptions::IsValid(std::string* why) const {
 
 namespace {
 
-// Distance from a point to the nearest of its keyframes' centres.
-double NearestViewRange(const MapPoint& p, const std::vector<KeyframeView>& views) {
-  double nearest = std::numeric_limits<double>::infinity();
-  for (int id : p.keyframes) {
-    // SparsePointCloud's keyframe ids are their indices.
-    if (id < 0 || static_cast<size_t>(id) >= views.size()) continue;
-    nearest = std::min(nearest, (views[static_cast<size_t>(id)].center_world - p.p_world).norm());
-  }
-  return nearest;
-}
-
 std::vector<MapPoint> VisiblePoints(const SparsePointCloud& sparse, int min_visibility,
                                     bool keep_unchecked_points) {
   std::vector<MapPoint> points = sparse.Points(keep_unchecked_points);
@@ -297,8 +285,10 @@ Result<MethodMap> MappingPipeline::Build(MappingMethod method, const GridGeometr
       std::vector<size_t> far_index;  // into out.points
       for (size_t i = 0; i < out.points.size(); ++i) {
         const MapPoint& p = out.points[i];
+        // SparsePointCloud's keyframe ids are their indices.
         if (p.keyframes.size() == 1 &&
-            NearestViewRange(p, out.keyframe_views) > occlusion.min_range_m) {
+            (out.keyframe_views[static_cast<size_t>(p.keyframes[0])].center_world - p.p_world)
+                    .norm() > occlusion.min_range_m) {
           far_single_view.push_back(p);
           far_index.push_back(i);
         } else {

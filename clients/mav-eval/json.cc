@@ -28,7 +28,9 @@ std::string Quote(const std::string& s) {
 std::string Number(double v) {
   if (!std::isfinite(v)) return "null";  // JSON has no NaN/inf
   char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.6g", v);
+  // Counts (voxels, box positions, points) exactly; other figures to 6 significant digits.
+  const bool integral = std::fabs(v) < 1e15 && v == std::floor(v);
+  std::snprintf(buf, sizeof(buf), integral ? "%.0f" : "%.6g", v);
   return buf;
 }
 

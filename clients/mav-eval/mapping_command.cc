@@ -6,13 +6,16 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -29,6 +32,7 @@
 #include "mav/dataset/occupancy_io.h"
 #include "mav/eval/trajectory_metrics.h"
 #include "mav/mapping/collision_eval.h"
+#include "mav/mapping/grid_morphology.h"
 #include "mav/mapping/mesh.h"
 #include "mav/mapping/observability.h"
 #include "mav/mapping/pipeline.h"
@@ -331,6 +335,149 @@ void PrintTables(const std::vector<MethodResult>& results, const mapping::Mappin
   }
 }
 
+// The protocol's sensitivity: the ground truth scored against itself with every surface moved by
+// one voxel, or with the free space no keyframe could observe made unknown (docs/mapping.md,
+// "Protocol sensitivity"). It bounds what a map whose surfaces are right to within one voxel, or
+// a map perfect wherever the cameras looked, can score on this data set.
+struct SensitivityRow {
+  enum class Change { kDilate, kErode, kHideUnobservable };
+  const char* name;  // the JSON key's prefix
+  const char* what;
+  Change change;
+  mapping::MorphologyOptions morphology;  // for kDilate and kErode
+  CollisionOutcomes outcomes;
+};
+
+// One row: the truth dilated (steps > 0) or eroded (steps < 0) by |steps| voxels along `axes`
+// ("xyz", "xy", "z").
+SensitivityRow Row(const char* name, const char* what, int steps, bool full,
+                   const std::string& axes) {
+  using Change = SensitivityRow::Change;
+  SensitivityRow r{name, what, steps > 0 ? Change::kDilate : Change::kErode, {}, {}};
+  r.morphology.steps = std::abs(steps);
+  r.morphology.full_neighbourhood = full;
+  r.morphology.along_x = axes.find('x') != std::string::npos;
+  r.morphology.along_y = axes.find('y') != std::string::npos;
+  r.morphology.along_z = axes.find('z') != std::string::npos;
+  return r;
+}
+
+std::vector<SensitivityRow> SensitivityRows() {
+  return {Row("dilated_1", "1 voxel thicker (6 face neighbours)", 1, false, "xyz"),
+          Row("dilated_1_full", "1 voxel thicker (26 neighbours)", 1, true, "xyz"),
+          Row("dilated_1_xy", "1 voxel thicker in x and y only", 1, false, "xy"),
+          Row("dilated_1_z", "1 voxel thicker in z only", 1, false, "z"),
+          Row("dilated_2", "2 voxels thicker (6 face neighbours)", 2, false, "xyz"),
+          Row("eroded_1", "1 voxel thinner (6 face neighbours)", -1, false, "xyz"),
+          {"unobservable_unknown",
+           "free space no keyframe could see unknown",
+           SensitivityRow::Change::kHideUnobservable,
+           {},
+           {}}};
+}
+
+void PrintSensitivity(const std::vector<SensitivityRow>& rows) {
+  std::printf(
+      "\nProtocol sensitivity: the ground truth scored against itself with its surfaces moved "
+      "or its unseen free space unknown (the ceiling of a map that is right to within that "
+      "much; information, not a target):\n");
+  std::printf("%-42s %8s %10s %10s\n", "truth changed", "MCC", "false-coll", "missed");
+  for (const SensitivityRow& r : rows) {
+    const CollisionOutcomes& c = r.outcomes;
+    std::printf("%-42s %8.3f %10.2f %10.2f\n", r.what, c.Mcc(), c.Percent(c.false_collision),
+                c.Percent(c.missed_collision));
+  }
+}
+
+// Where a map's errors are: its wrong voxels in classes (distance to the true surface, height in
+// the evaluation volume), and the map's outcomes with one class set right (the truth's state),
+// the rest as it was. A voxel is blocked when it is occupied or unknown (both collide).
+struct AttributionRow {
+  std::string name;  // the JSON key's prefix
+  std::string what;
+  int64_t voxels = 0;
+  CollisionOutcomes outcomes;
+};
+
+Result<std::vector<AttributionRow>> AttributeErrors(const OccupancyGrid& truth,
+                                                    const OccupancyGrid& map,
+                                                    const mapping::CollisionEvalOptions& eval) {
+  constexpr int kFar = 3;  // steps; farther wrong voxels form one class
+  mapping::MorphologyOptions steps_options;
+  steps_options.steps = kFar;
+  steps_options.full_neighbourhood = true;
+  auto steps = mapping::StepsToOccupied(truth, steps_options);
+  if (!steps.ok()) return steps.status();
+  auto blocked = [](VoxelState v) { return v != VoxelState::kFree; };
+  const int z_lo = eval.region_min.z(), z_hi = eval.region_max.z();
+  auto quarter = [&](int64_t v) {
+    const int k = static_cast<int>(v / (static_cast<int64_t>(truth.size().x()) * truth.size().y()));
+    return std::clamp(4 * (k - z_lo) / std::max(1, z_hi - z_lo), 0, 3);
+  };
+  // Class predicates over the wrong voxels.
+  struct Class {
+    std::string name, what;
+    std::function<bool(int64_t v, bool false_block)> member;
+  };
+  std::vector<Class> classes;
+  for (int d = 1; d <= kFar + 1; ++d) {
+    classes.push_back(
+        {d <= kFar ? "blocked_at_" + std::to_string(d) : "blocked_beyond_" + std::to_string(kFar),
+         d <= kFar
+             ? "map blocked, truth free: " + std::to_string(d) + (d == 1 ? " step" : " steps") +
+                   " from the surface"
+             : "map blocked, truth free: > " + std::to_string(kFar) + " steps from the surface",
+         [&steps, d](int64_t v, bool false_block) {
+           return false_block && (*steps)[static_cast<size_t>(v)] == d;
+         }});
+  }
+  const char* quarter_names[4] = {"bottom", "second", "third", "top"};
+  for (int q = 0; q < 4; ++q) {
+    classes.push_back(
+        {std::string("blocked_") + quarter_names[q] + "_quarter",
+         std::string("map blocked, truth free: ") + quarter_names[q] + " quarter of the height",
+         [&quarter, q](int64_t v, bool false_block) { return false_block && quarter(v) == q; }});
+  }
+  classes.push_back({"blocked_all", "map blocked, truth free: all",
+                     [](int64_t, bool false_block) { return false_block; }});
+  classes.push_back({"free_all", "map free, truth blocked (the misses): all",
+                     [](int64_t, bool false_block) { return !false_block; }});
+
+  std::vector<AttributionRow> rows;
+  for (const Class& c : classes) {
+    OccupancyGrid fixed = map;
+    AttributionRow row{c.name, c.what, 0, {}};
+    for (int64_t v = 0; v < map.num_voxels(); ++v) {
+      if (blocked(map[v]) == blocked(truth[v])) continue;
+      if (!c.member(v, blocked(map[v]))) continue;
+      fixed[v] = truth[v];
+      ++row.voxels;
+    }
+    auto outcomes = mapping::EvaluateCollisions(truth, fixed, eval);
+    if (!outcomes.ok()) return outcomes.status();
+    row.outcomes = *outcomes;
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+void PrintAttribution(const std::string& method, const CollisionOutcomes& as_is,
+                      const std::vector<AttributionRow>& rows) {
+  std::printf(
+      "\nError attribution, %s (MCC %.3f): the map with one class of its wrong voxels set right "
+      "(steps with 26 neighbours to the nearest truth-occupied voxel; height within the "
+      "evaluation volume):\n",
+      method.c_str(), as_is.Mcc());
+  std::printf("%-56s %9s %8s %10s %10s\n", "voxels set right", "voxels", "MCC", "false-coll",
+              "missed");
+  for (const AttributionRow& r : rows) {
+    const CollisionOutcomes& c = r.outcomes;
+    std::printf("%-56s %9lld %8.3f %10.2f %10.2f\n", r.what.c_str(),
+                static_cast<long long>(r.voxels), c.Mcc(), c.Percent(c.false_collision),
+                c.Percent(c.missed_collision));
+  }
+}
+
 }  // namespace
 
 int RunMapping(const std::vector<std::string>& args) {
@@ -358,6 +505,10 @@ int RunMapping(const std::vector<std::string>& args) {
   flags.AddDouble("keyframe-rotation-deg", &keyframe_rotation_deg,
                   "rotation to the last keyframe that makes a keyframe [deg]");
   flags.AddBool("no-figure", &no_figure, "do not draw mapping.png");
+  bool error_attribution = false;
+  flags.AddBool("error-attribution", &error_attribution,
+                "also print where each map's wrong voxels are and what setting each class right "
+                "would score");
   int64_t points_per_keyframe = options.sparse.target_points_per_keyframe;
   flags.AddInt64("points-per-keyframe", &points_per_keyframe,
                  "sparse-mesh: stereo points kept per keyframe (the paper: ~100)", 1, 100000);
@@ -582,6 +733,7 @@ int RunMapping(const std::vector<std::string>& args) {
   mapping::CollisionEvalOptions observable_options = eval_options;
   observable_options.observable = &*observable;
   std::vector<MethodResult> results;
+  std::vector<std::pair<std::string, std::vector<AttributionRow>>> attribution;
   JsonReport json;
   for (MappingMethod m : {MappingMethod::kSparseMesh, MappingMethod::kOctomap}) {
     const bool ours = m == MappingMethod::kSparseMesh;
@@ -596,6 +748,21 @@ int RunMapping(const std::vector<std::string>& args) {
                    ours ? out->sparse_mesh_timing.total_s : out->octomap_timing.total_s, *seen};
     results.push_back(r);
     const std::string name = mapping::MappingMethodName(m);
+    if (error_attribution) {
+      auto rows =
+          AttributeErrors(truth, ours ? out->sparse_mesh_grid : out->octomap_grid, eval_options);
+      if (!rows.ok()) return Fail(rows.status().message());
+      for (const AttributionRow& row : *rows) {
+        const std::string group = "error_attribution_" + name;
+        json.Set(group, row.name + "_voxels", static_cast<double>(row.voxels));
+        json.Set(group, row.name + "_fixed_mcc", row.outcomes.Mcc());
+        json.Set(group, row.name + "_fixed_missed_collision_pct",
+                 row.outcomes.Percent(row.outcomes.missed_collision));
+        json.Set(group, row.name + "_fixed_false_collision_pct",
+                 row.outcomes.Percent(row.outcomes.false_collision));
+      }
+      attribution.emplace_back(name, std::move(*rows));
+    }
     // The paper's figures over the whole volume, then the same over the observable volume.
     for (const auto& [prefix, c] :
          {std::pair<std::string, const CollisionOutcomes&>{"", r.outcomes},
@@ -641,6 +808,34 @@ int RunMapping(const std::vector<std::string>& args) {
       json.Set(name, "range_points", static_cast<double>(out->octomap_stats.TotalPoints()));
     }
   }
+  std::vector<SensitivityRow> sensitivity = SensitivityRows();
+  for (SensitivityRow& r : sensitivity) {
+    Result<OccupancyGrid> changed = truth;
+    switch (r.change) {
+      case SensitivityRow::Change::kDilate:
+        changed = mapping::DilateOccupied(truth, r.morphology);
+        break;
+      case SensitivityRow::Change::kErode:
+        changed = mapping::ErodeOccupied(truth, r.morphology);
+        break;
+      case SensitivityRow::Change::kHideUnobservable:
+        for (int64_t v = 0; v < changed->num_voxels(); ++v) {
+          if ((*changed)[v] == VoxelState::kFree && !(*observable)[static_cast<size_t>(v)]) {
+            (*changed)[v] = VoxelState::kUnknown;
+          }
+        }
+        break;
+    }
+    if (!changed.ok()) return Fail(changed.status().message());
+    auto outcomes = mapping::EvaluateCollisions(truth, *changed, eval_options);
+    if (!outcomes.ok()) return Fail(outcomes.status().message());
+    r.outcomes = *outcomes;
+    json.Set("truth_sensitivity", std::string(r.name) + "_mcc", r.outcomes.Mcc());
+    json.Set("truth_sensitivity", std::string(r.name) + "_false_collision_pct",
+             r.outcomes.Percent(r.outcomes.false_collision));
+    json.Set("truth_sensitivity", std::string(r.name) + "_missed_collision_pct",
+             r.outcomes.Percent(r.outcomes.missed_collision));
+  }
   if (results.size() == 2) {
     json.Set("comparison", "speedup", results[1].runtime_s / std::max(results[0].runtime_s, 1e-9));
     json.Set("comparison", "mcc_gap", results[0].outcomes.Mcc() - results[1].outcomes.Mcc());
@@ -652,6 +847,10 @@ int RunMapping(const std::vector<std::string>& args) {
               static_cast<long long>(out->frames), static_cast<long long>(out->keyframes),
               keyframe_translation_m, keyframe_rotation_deg);
   PrintTables(results, *out, preset);
+  PrintSensitivity(sensitivity);
+  for (size_t i = 0; i < attribution.size(); ++i) {
+    PrintAttribution(attribution[i].first, results[i].outcomes, attribution[i].second);
+  }
   if (out->has_sparse_mesh) {
     const mapping::SparseMeshTiming& t = out->sparse_mesh_timing;
     int64_t multi = 0;

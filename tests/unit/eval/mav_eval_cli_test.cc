@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <sstream>
 #include <string>
@@ -143,11 +144,51 @@ TEST_F(MavEvalCli, MappingPreferenceIsValidated) {
       << r.output;
 }
 
-// The sparse-mesh grid is written in the stack's own format too, and the weak-surface view gate and
-// the stereo uniqueness ratio are checked before any work.
+// A figure of the JSON report, or NaN when the key is missing.
+double JsonNumber(const std::string& json, const std::string& key) {
+  const size_t at = json.find("\"" + key + "\": ");
+  if (at == std::string::npos) return std::nan("");
+  return std::stod(json.substr(at + key.size() + 4));
+}
+
+// The sparse-mesh grid is written in the stack's own format too, the protocol's sensitivity is
+// reported, and the weak-surface view gate and the stereo uniqueness ratio are checked before any
+// work.
 TEST_F(MavEvalCli, MappingWritesTheGridAsMavocc) {
-  RunResult r = RunTool("mav-eval", "mapping --method sparse-mesh --no-figure --data " + set_);
+  RunResult r = RunTool("mav-eval", "mapping --method sparse-mesh --no-figure --json " + set_ +
+                                        "/mapping.json --data " + set_);
   ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Protocol sensitivity"), std::string::npos) << r.output;
+  // A truth one voxel thicker never misses a collision and loses MCC; one voxel thinner misses.
+  const std::string json = ReadFile(set_ + "/mapping.json");
+  EXPECT_EQ(JsonNumber(json, "dilated_1_missed_collision_pct"), 0.0) << json;
+  EXPECT_GT(JsonNumber(json, "dilated_1_false_collision_pct"), 0.0) << json;
+  EXPECT_LT(JsonNumber(json, "dilated_1_mcc"), 1.0) << json;
+  EXPECT_LT(JsonNumber(json, "dilated_2_mcc"), JsonNumber(json, "dilated_1_mcc")) << json;
+  EXPECT_GT(JsonNumber(json, "eroded_1_missed_collision_pct"), 0.0) << json;
+  // Unknown counts as occupied: hiding the free space no keyframe saw can only add false ones.
+  EXPECT_EQ(JsonNumber(json, "unobservable_unknown_missed_collision_pct"), 0.0) << json;
+  // The error attribution is off by default; with it, setting every wrong voxel of one kind right
+  // removes every outcome of that kind, and the distance classes add up to all of them.
+  EXPECT_TRUE(std::isnan(JsonNumber(json, "blocked_all_voxels"))) << json;
+  r = RunTool("mav-eval", "mapping --method sparse-mesh --no-figure --error-attribution --json " +
+                              set_ + "/attribution.json --data " + set_);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("Error attribution, sparse-mesh"), std::string::npos) << r.output;
+  const std::string attribution = ReadFile(set_ + "/attribution.json");
+  EXPECT_EQ(JsonNumber(attribution, "blocked_all_fixed_false_collision_pct"), 0.0);
+  EXPECT_EQ(JsonNumber(attribution, "free_all_fixed_missed_collision_pct"), 0.0);
+  double by_distance = 0, by_height = 0;
+  for (const char* c : {"blocked_at_1", "blocked_at_2", "blocked_at_3", "blocked_beyond_3"}) {
+    by_distance += JsonNumber(attribution, std::string(c) + "_voxels");
+  }
+  for (const char* q : {"bottom", "second", "third", "top"}) {
+    by_height += JsonNumber(attribution, std::string("blocked_") + q + "_quarter_voxels");
+  }
+  const double all = JsonNumber(attribution, "blocked_all_voxels");
+  EXPECT_GT(all, 0.0) << attribution;
+  EXPECT_EQ(by_distance, all) << attribution;
+  EXPECT_EQ(by_height, all) << attribution;
   const std::string grid = ReadFile(set_ + "/eval/sparse_mesh.mavocc");
   ASSERT_GT(grid.size(), 80u);
   EXPECT_EQ(grid.substr(0, 8), std::string("MAVOCC\n\x1a"));

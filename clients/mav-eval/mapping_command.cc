@@ -9,7 +9,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
-#include <functional>
 #include <iostream>
 #include <limits>
 #include <optional>
@@ -408,16 +407,29 @@ Result<std::vector<AttributionRow>> AttributeErrors(const OccupancyGrid& truth,
   steps_options.full_neighbourhood = true;
   auto steps = mapping::StepsToOccupied(truth, steps_options);
   if (!steps.ok()) return steps.status();
-  auto blocked = [](VoxelState v) { return v != VoxelState::kFree; };
-  const int z_lo = eval.region_min.z(), z_hi = eval.region_max.z();
-  auto quarter = [&](int64_t v) {
-    const int k = static_cast<int>(v / (static_cast<int64_t>(truth.size().x()) * truth.size().y()));
-    return std::clamp(4 * (k - z_lo) / std::max(1, z_hi - z_lo), 0, 3);
+  // Every wrong voxel once, with its distance class (1..kFar + 1), height quarter (0..3) and kind.
+  struct Wrong {
+    int64_t v;
+    int distance;
+    int quarter;
+    bool false_block;  // blocked in the map, free in the truth (else: a miss)
   };
-  // Class predicates over the wrong voxels.
+  auto blocked = [](VoxelState v) { return v != VoxelState::kFree; };
+  const int z_lo = eval.region_min.z(), height = std::max(1, eval.region_max.z() - z_lo);
+  const int64_t nxy = static_cast<int64_t>(truth.size().x()) * truth.size().y();
+  std::vector<Wrong> wrong;
+  for (int64_t v = 0; v < map.num_voxels(); ++v) {
+    if (blocked(map[v]) == blocked(truth[v])) continue;
+    const int k = static_cast<int>(v / nxy);
+    wrong.push_back({v, (*steps)[static_cast<size_t>(v)], std::clamp(4 * (k - z_lo) / height, 0, 3),
+                     blocked(map[v])});
+  }
+  // The classes: a name, a description, and a test of one wrong voxel.
+  enum class By { kDistance, kQuarter, kAllBlocked, kAllMissed };
   struct Class {
     std::string name, what;
-    std::function<bool(int64_t v, bool false_block)> member;
+    By by;
+    int value;
   };
   std::vector<Class> classes;
   for (int d = 1; d <= kFar + 1; ++d) {
@@ -427,30 +439,38 @@ Result<std::vector<AttributionRow>> AttributeErrors(const OccupancyGrid& truth,
              ? "map blocked, truth free: " + std::to_string(d) + (d == 1 ? " step" : " steps") +
                    " from the surface"
              : "map blocked, truth free: > " + std::to_string(kFar) + " steps from the surface",
-         [&steps, d](int64_t v, bool false_block) {
-           return false_block && (*steps)[static_cast<size_t>(v)] == d;
-         }});
+         By::kDistance, d});
   }
   const char* quarter_names[4] = {"bottom", "second", "third", "top"};
   for (int q = 0; q < 4; ++q) {
     classes.push_back(
         {std::string("blocked_") + quarter_names[q] + "_quarter",
          std::string("map blocked, truth free: ") + quarter_names[q] + " quarter of the height",
-         [&quarter, q](int64_t v, bool false_block) { return false_block && quarter(v) == q; }});
+         By::kQuarter, q});
   }
-  classes.push_back({"blocked_all", "map blocked, truth free: all",
-                     [](int64_t, bool false_block) { return false_block; }});
-  classes.push_back({"free_all", "map free, truth blocked (the misses): all",
-                     [](int64_t, bool false_block) { return !false_block; }});
+  classes.push_back({"blocked_all", "map blocked, truth free: all", By::kAllBlocked, 0});
+  classes.push_back({"free_all", "map free, truth blocked (the misses): all", By::kAllMissed, 0});
+  auto member = [](const Class& c, const Wrong& w) {
+    switch (c.by) {
+      case By::kDistance:
+        return w.false_block && w.distance == c.value;
+      case By::kQuarter:
+        return w.false_block && w.quarter == c.value;
+      case By::kAllBlocked:
+        return w.false_block;
+      case By::kAllMissed:
+        return !w.false_block;
+    }
+    return false;
+  };
 
   std::vector<AttributionRow> rows;
   for (const Class& c : classes) {
     OccupancyGrid fixed = map;
     AttributionRow row{c.name, c.what, 0, {}};
-    for (int64_t v = 0; v < map.num_voxels(); ++v) {
-      if (blocked(map[v]) == blocked(truth[v])) continue;
-      if (!c.member(v, blocked(map[v]))) continue;
-      fixed[v] = truth[v];
+    for (const Wrong& w : wrong) {
+      if (!member(c, w)) continue;
+      fixed[w.v] = truth[w.v];
       ++row.voxels;
     }
     auto outcomes = mapping::EvaluateCollisions(truth, fixed, eval);

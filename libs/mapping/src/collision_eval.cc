@@ -156,8 +156,23 @@ Result<CollisionOutcomes> EvaluateCollisions(const OccupancyGrid& truth,
         "CollisionEvalOptions.observable: " + std::to_string(options.observable->size()) +
         " bytes for a truth grid of " + std::to_string(truth.num_voxels()) + " voxels");
   }
-  const BoxQuery truth_query(truth);
-  const BoxQuery computed_query(computed);
+  // One table per grid of the voxels that block a box (occupied, or unknown when unknown counts
+  // as occupied): every position lies inside the grid, so a box collides iff its count is > 0.
+  auto blocked_table = [](const OccupancyGrid& grid, bool unknown_blocks) {
+    std::vector<int32_t> table;
+    BuildTable(
+        grid,
+        [&](int64_t i) {
+          return grid[i] == VoxelState::kOccupied ||
+                 (unknown_blocks && grid[i] == VoxelState::kUnknown);
+        },
+        &table);
+    return table;
+  };
+  const std::vector<int32_t> truth_blocked =
+      blocked_table(truth, options.truth_unknown_is_occupied);
+  const std::vector<int32_t> computed_blocked =
+      blocked_table(computed, options.computed_unknown_is_occupied);
   // Truth-free voxels no camera could observe; a position covering one is not counted.
   std::vector<int32_t> unobserved;
   if (options.observable != nullptr) {
@@ -169,20 +184,24 @@ Result<CollisionOutcomes> EvaluateCollisions(const OccupancyGrid& truth,
         },
         &unobserved);
   }
+  // The box's count from a table entry p = its min corner: the eight corners as linear offsets
+  // of the (n + 1)^3 table, so the loop below runs on plain integers.
+  const int64_t sx = n.x() + 1, sxy = sx * (n.y() + 1);
+  const int64_t dx = box.x(), dy = box.y() * sx, dz = box.z() * sxy;
+  auto count = [&](const std::vector<int32_t>& t, int64_t p) {
+    const int32_t* c = t.data() + p;
+    return static_cast<int64_t>(c[dx + dy + dz]) - c[dy + dz] - c[dx + dz] - c[dx + dy] + c[dz] +
+           c[dy] + c[dx] - c[0];
+  };
   CollisionOutcomes out;
   const int step = options.step_voxels;
   for (int k = lo.z(); k + box.z() <= hi.z(); k += step) {
     for (int j = lo.y(); j + box.y() <= hi.y(); j += step) {
       for (int i = lo.x(); i + box.x() <= hi.x(); i += step) {
-        const Eigen::Vector3i min(i, j, k);
-        const Eigen::Vector3i max = min + box;
-        if (!unobserved.empty() && TableSum(unobserved, n, min, max) > 0) continue;
-        const bool truth_hit =
-            truth_query.Occupied(min, max) > 0 ||
-            (options.truth_unknown_is_occupied && truth_query.Unknown(min, max) > 0);
-        const bool computed_hit =
-            computed_query.Occupied(min, max) > 0 ||
-            (options.computed_unknown_is_occupied && computed_query.Unknown(min, max) > 0);
+        const int64_t p = k * sxy + j * sx + i;
+        if (!unobserved.empty() && count(unobserved, p) > 0) continue;
+        const bool truth_hit = count(truth_blocked, p) > 0;
+        const bool computed_hit = count(computed_blocked, p) > 0;
         if (truth_hit) {
           ++(computed_hit ? out.correct_collision : out.missed_collision);
         } else {

@@ -26,22 +26,46 @@ std::vector<Eigen::Vector3i> Offsets(const MorphologyOptions& options) {
   return offsets;
 }
 
+// A neighbour offset as index deltas and as a linear delta, for loops without Eigen in them.
+struct Neighbour {
+  int dx, dy, dz;
+  int64_t linear;
+};
+
+std::vector<Neighbour> Neighbours(const OccupancyGrid& grid,
+                                  const std::vector<Eigen::Vector3i>& offsets) {
+  const int64_t nx = grid.size().x(), nxy = nx * grid.size().y();
+  std::vector<Neighbour> out;
+  out.reserve(offsets.size());
+  for (const Eigen::Vector3i& d : offsets) {
+    out.push_back({d.x(), d.y(), d.z(), d.z() * nxy + d.y() * nx + d.x()});
+  }
+  return out;
+}
+
 // One step: every voxel in state `from` with a neighbour in state `trigger` becomes `to`; the
 // neighbours are read from the grid as it was before the step.
-OccupancyGrid Step(const OccupancyGrid& in, const std::vector<Eigen::Vector3i>& offsets,
+OccupancyGrid Step(const OccupancyGrid& in, const std::vector<Neighbour>& neighbours,
                    VoxelState from, VoxelState trigger, VoxelState to) {
   OccupancyGrid out = in;
-  const Eigen::Vector3i& n = in.size();
-  for (int k = 0; k < n.z(); ++k) {
-    for (int j = 0; j < n.y(); ++j) {
-      for (int i = 0; i < n.x(); ++i) {
-        const int64_t v = in.Linear(i, j, k);
-        if (in[v] != from) continue;
-        for (const Eigen::Vector3i& d : offsets) {
-          const Eigen::Vector3i q(i + d.x(), j + d.y(), k + d.z());
-          if (!in.InBounds(q)) continue;
-          if (in[in.Linear(q.x(), q.y(), q.z())] == trigger) {
-            out[v] = to;
+  const int nx = in.size().x(), ny = in.size().y(), nz = in.size().z();
+  const VoxelState* src = in.states().data();
+  VoxelState* dst = out.mutable_states().data();
+  int64_t v = 0;
+  for (int k = 0; k < nz; ++k) {
+    for (int j = 0; j < ny; ++j) {
+      // Interior voxels of the row need no bounds check.
+      const bool row_inside = j > 0 && j + 1 < ny && k > 0 && k + 1 < nz;
+      for (int i = 0; i < nx; ++i, ++v) {
+        if (src[v] != from) continue;
+        const bool inside = row_inside && i > 0 && i + 1 < nx;
+        for (const Neighbour& n : neighbours) {
+          if (!inside) {
+            const int qi = i + n.dx, qj = j + n.dy, qk = k + n.dz;
+            if (qi < 0 || qi >= nx || qj < 0 || qj >= ny || qk < 0 || qk >= nz) continue;
+          }
+          if (src[v + n.linear] == trigger) {
+            dst[v] = to;
             break;
           }
         }
@@ -55,9 +79,9 @@ Result<OccupancyGrid> Apply(const OccupancyGrid& grid, const MorphologyOptions& 
                             VoxelState from, VoxelState trigger, VoxelState to) {
   std::string why;
   if (!options.IsValid(&why)) return Status::InvalidArgument("MorphologyOptions: " + why);
-  const std::vector<Eigen::Vector3i> offsets = Offsets(options);
+  const std::vector<Neighbour> neighbours = Neighbours(grid, Offsets(options));
   OccupancyGrid out = grid;
-  for (int s = 0; s < options.steps; ++s) out = Step(out, offsets, from, trigger, to);
+  for (int s = 0; s < options.steps; ++s) out = Step(out, neighbours, from, trigger, to);
   return out;
 }
 
@@ -87,7 +111,7 @@ Result<std::vector<uint8_t>> StepsToOccupied(const OccupancyGrid& grid,
                                              const MorphologyOptions& options) {
   std::string why;
   if (!options.IsValid(&why)) return Status::InvalidArgument("MorphologyOptions: " + why);
-  const std::vector<Eigen::Vector3i> offsets = Offsets(options);
+  const std::vector<Neighbour> neighbours = Neighbours(grid, Offsets(options));
   const uint8_t far = static_cast<uint8_t>(options.steps + 1);
   std::vector<uint8_t> steps(static_cast<size_t>(grid.num_voxels()), far);
   std::vector<int64_t> front, next;
@@ -97,20 +121,21 @@ Result<std::vector<uint8_t>> StepsToOccupied(const OccupancyGrid& grid,
       front.push_back(v);
     }
   }
-  const Eigen::Vector3i& n = grid.size();
+  const int nx = grid.size().x(), ny = grid.size().y(), nz = grid.size().z();
+  const int64_t nxy = static_cast<int64_t>(nx) * ny;
   for (int s = 1; s <= options.steps && !front.empty(); ++s) {
     next.clear();
     for (const int64_t v : front) {
-      const int i = static_cast<int>(v % n.x());
-      const int j = static_cast<int>((v / n.x()) % n.y());
-      const int k = static_cast<int>(v / (static_cast<int64_t>(n.x()) * n.y()));
-      for (const Eigen::Vector3i& d : offsets) {
-        const Eigen::Vector3i q(i + d.x(), j + d.y(), k + d.z());
-        if (!grid.InBounds(q)) continue;
-        const int64_t w = grid.Linear(q.x(), q.y(), q.z());
-        if (steps[static_cast<size_t>(w)] != far) continue;
-        steps[static_cast<size_t>(w)] = static_cast<uint8_t>(s);
-        next.push_back(w);
+      const int i = static_cast<int>(v % nx);
+      const int j = static_cast<int>((v / nx) % ny);
+      const int k = static_cast<int>(v / nxy);
+      for (const Neighbour& n : neighbours) {
+        const int qi = i + n.dx, qj = j + n.dy, qk = k + n.dz;
+        if (qi < 0 || qi >= nx || qj < 0 || qj >= ny || qk < 0 || qk >= nz) continue;
+        uint8_t& w = steps[static_cast<size_t>(v + n.linear)];
+        if (w != far) continue;
+        w = static_cast<uint8_t>(s);
+        next.push_back(v + n.linear);
       }
     }
     front.swap(next);

@@ -248,12 +248,32 @@ Status WriteMappingFigure(const std::string& path, const std::string& title,
 
 // ---- Tables ----------------------------------------------------------------------------------
 
+// Where a map's errors are: its wrong voxels in classes (distance to the true surface, height in
+// the evaluation volume), and the map's outcomes with one class set right (the truth's state),
+// the rest as it was. A voxel is blocked when it is occupied or unknown (both collide).
+struct AttributionRow {
+  std::string name;  // the JSON key's prefix
+  std::string what;
+  int64_t voxels = 0;
+  CollisionOutcomes outcomes;
+};
+
 struct MethodResult {
   MappingMethod method;
   CollisionOutcomes outcomes;
   double runtime_s = 0;
-  CollisionOutcomes observable;  // over the observable volume only
+  CollisionOutcomes observable;             // over the observable volume only
+  std::vector<AttributionRow> attribution;  // with --error-attribution
 };
+
+// MCC, missed and false collisions of `c` as "<prefix>mcc", "<prefix>missed_collision_pct" and
+// "<prefix>false_collision_pct" of `group`.
+void SetMccMissedFalse(JsonReport* json, const std::string& group, const std::string& prefix,
+                       const CollisionOutcomes& c) {
+  json->Set(group, prefix + "mcc", c.Mcc());
+  json->Set(group, prefix + "missed_collision_pct", c.Percent(c.missed_collision));
+  json->Set(group, prefix + "false_collision_pct", c.Percent(c.false_collision));
+}
 
 std::string Paper(const std::optional<int>& ds, double v, const char* format) {
   if (!ds) return "-";
@@ -375,6 +395,26 @@ std::vector<SensitivityRow> SensitivityRows() {
            {}}};
 }
 
+// The truth as `row` changes it; `observable` is the ObservableVoxels mask of the truth.
+Result<OccupancyGrid> ChangedTruth(const OccupancyGrid& truth, const SensitivityRow& row,
+                                   const std::vector<uint8_t>& observable) {
+  switch (row.change) {
+    case SensitivityRow::Change::kDilate:
+      return mapping::DilateOccupied(truth, row.morphology);
+    case SensitivityRow::Change::kErode:
+      return mapping::ErodeOccupied(truth, row.morphology);
+    case SensitivityRow::Change::kHideUnobservable:
+      break;
+  }
+  OccupancyGrid hidden = truth;
+  for (int64_t v = 0; v < hidden.num_voxels(); ++v) {
+    if (hidden[v] == VoxelState::kFree && !observable[static_cast<size_t>(v)]) {
+      hidden[v] = VoxelState::kUnknown;
+    }
+  }
+  return hidden;
+}
+
 void PrintSensitivity(const std::vector<SensitivityRow>& rows) {
   std::printf(
       "\nProtocol sensitivity: the ground truth scored against itself with its surfaces moved "
@@ -387,16 +427,6 @@ void PrintSensitivity(const std::vector<SensitivityRow>& rows) {
                 c.Percent(c.missed_collision));
   }
 }
-
-// Where a map's errors are: its wrong voxels in classes (distance to the true surface, height in
-// the evaluation volume), and the map's outcomes with one class set right (the truth's state),
-// the rest as it was. A voxel is blocked when it is occupied or unknown (both collide).
-struct AttributionRow {
-  std::string name;  // the JSON key's prefix
-  std::string what;
-  int64_t voxels = 0;
-  CollisionOutcomes outcomes;
-};
 
 Result<std::vector<AttributionRow>> AttributeErrors(const OccupancyGrid& truth,
                                                     const OccupancyGrid& map,
@@ -481,16 +511,15 @@ Result<std::vector<AttributionRow>> AttributeErrors(const OccupancyGrid& truth,
   return rows;
 }
 
-void PrintAttribution(const std::string& method, const CollisionOutcomes& as_is,
-                      const std::vector<AttributionRow>& rows) {
+void PrintAttribution(const MethodResult& result) {
   std::printf(
       "\nError attribution, %s (MCC %.3f): the map with one class of its wrong voxels set right "
       "(steps with 26 neighbours to the nearest truth-occupied voxel; height within the "
       "evaluation volume):\n",
-      method.c_str(), as_is.Mcc());
+      mapping::MappingMethodName(result.method), result.outcomes.Mcc());
   std::printf("%-56s %9s %8s %10s %10s\n", "voxels set right", "voxels", "MCC", "false-coll",
               "missed");
-  for (const AttributionRow& r : rows) {
+  for (const AttributionRow& r : result.attribution) {
     const CollisionOutcomes& c = r.outcomes;
     std::printf("%-56s %9lld %8.3f %10.2f %10.2f\n", r.what.c_str(),
                 static_cast<long long>(r.voxels), c.Mcc(), c.Percent(c.false_collision),
@@ -753,36 +782,32 @@ int RunMapping(const std::vector<std::string>& args) {
   mapping::CollisionEvalOptions observable_options = eval_options;
   observable_options.observable = &*observable;
   std::vector<MethodResult> results;
-  std::vector<std::pair<std::string, std::vector<AttributionRow>>> attribution;
   JsonReport json;
   for (MappingMethod m : {MappingMethod::kSparseMesh, MappingMethod::kOctomap}) {
     const bool ours = m == MappingMethod::kSparseMesh;
     if (ours ? !out->has_sparse_mesh : !out->has_octomap) continue;
-    auto outcomes = mapping::EvaluateCollisions(
-        truth, ours ? out->sparse_mesh_grid : out->octomap_grid, eval_options);
+    const OccupancyGrid& grid = ours ? out->sparse_mesh_grid : out->octomap_grid;
+    auto outcomes = mapping::EvaluateCollisions(truth, grid, eval_options);
     if (!outcomes.ok()) return Fail(outcomes.status().message());
-    auto seen = mapping::EvaluateCollisions(truth, ours ? out->sparse_mesh_grid : out->octomap_grid,
-                                            observable_options);
+    auto seen = mapping::EvaluateCollisions(truth, grid, observable_options);
     if (!seen.ok()) return Fail(seen.status().message());
-    MethodResult r{m, *outcomes,
-                   ours ? out->sparse_mesh_timing.total_s : out->octomap_timing.total_s, *seen};
-    results.push_back(r);
+    MethodResult r{m,
+                   *outcomes,
+                   ours ? out->sparse_mesh_timing.total_s : out->octomap_timing.total_s,
+                   *seen,
+                   {}};
     const std::string name = mapping::MappingMethodName(m);
     if (error_attribution) {
-      auto rows =
-          AttributeErrors(truth, ours ? out->sparse_mesh_grid : out->octomap_grid, eval_options);
+      auto rows = AttributeErrors(truth, grid, eval_options);
       if (!rows.ok()) return Fail(rows.status().message());
       for (const AttributionRow& row : *rows) {
         const std::string group = "error_attribution_" + name;
         json.Set(group, row.name + "_voxels", static_cast<double>(row.voxels));
-        json.Set(group, row.name + "_fixed_mcc", row.outcomes.Mcc());
-        json.Set(group, row.name + "_fixed_missed_collision_pct",
-                 row.outcomes.Percent(row.outcomes.missed_collision));
-        json.Set(group, row.name + "_fixed_false_collision_pct",
-                 row.outcomes.Percent(row.outcomes.false_collision));
+        SetMccMissedFalse(&json, group, row.name + "_fixed_", row.outcomes);
       }
-      attribution.emplace_back(name, std::move(*rows));
+      r.attribution = std::move(*rows);
     }
+    results.push_back(r);
     // The paper's figures over the whole volume, then the same over the observable volume.
     for (const auto& [prefix, c] :
          {std::pair<std::string, const CollisionOutcomes&>{"", r.outcomes},
@@ -830,31 +855,12 @@ int RunMapping(const std::vector<std::string>& args) {
   }
   std::vector<SensitivityRow> sensitivity = SensitivityRows();
   for (SensitivityRow& r : sensitivity) {
-    Result<OccupancyGrid> changed = truth;
-    switch (r.change) {
-      case SensitivityRow::Change::kDilate:
-        changed = mapping::DilateOccupied(truth, r.morphology);
-        break;
-      case SensitivityRow::Change::kErode:
-        changed = mapping::ErodeOccupied(truth, r.morphology);
-        break;
-      case SensitivityRow::Change::kHideUnobservable:
-        for (int64_t v = 0; v < changed->num_voxels(); ++v) {
-          if ((*changed)[v] == VoxelState::kFree && !(*observable)[static_cast<size_t>(v)]) {
-            (*changed)[v] = VoxelState::kUnknown;
-          }
-        }
-        break;
-    }
+    auto changed = ChangedTruth(truth, r, *observable);
     if (!changed.ok()) return Fail(changed.status().message());
     auto outcomes = mapping::EvaluateCollisions(truth, *changed, eval_options);
     if (!outcomes.ok()) return Fail(outcomes.status().message());
     r.outcomes = *outcomes;
-    json.Set("truth_sensitivity", std::string(r.name) + "_mcc", r.outcomes.Mcc());
-    json.Set("truth_sensitivity", std::string(r.name) + "_false_collision_pct",
-             r.outcomes.Percent(r.outcomes.false_collision));
-    json.Set("truth_sensitivity", std::string(r.name) + "_missed_collision_pct",
-             r.outcomes.Percent(r.outcomes.missed_collision));
+    SetMccMissedFalse(&json, "truth_sensitivity", std::string(r.name) + "_", r.outcomes);
   }
   if (results.size() == 2) {
     json.Set("comparison", "speedup", results[1].runtime_s / std::max(results[0].runtime_s, 1e-9));
@@ -868,8 +874,8 @@ int RunMapping(const std::vector<std::string>& args) {
               keyframe_translation_m, keyframe_rotation_deg);
   PrintTables(results, *out, preset);
   PrintSensitivity(sensitivity);
-  for (size_t i = 0; i < attribution.size(); ++i) {
-    PrintAttribution(attribution[i].first, results[i].outcomes, attribution[i].second);
+  for (const MethodResult& r : results) {
+    if (!r.attribution.empty()) PrintAttribution(r);
   }
   if (out->has_sparse_mesh) {
     const mapping::SparseMeshTiming& t = out->sparse_mesh_timing;

@@ -1,46 +1,45 @@
 #include "mav/mapping/grid_morphology.h"
 
+#include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace mav::mapping {
 namespace {
 
-// The neighbour offsets one step may use.
-std::vector<Eigen::Vector3i> Offsets(const MorphologyOptions& options) {
-  std::vector<Eigen::Vector3i> offsets;
-  const bool allowed[3] = {options.along_x, options.along_y, options.along_z};
-  for (int dz = -1; dz <= 1; ++dz) {
-    for (int dy = -1; dy <= 1; ++dy) {
-      for (int dx = -1; dx <= 1; ++dx) {
-        const Eigen::Vector3i d(dx, dy, dz);
-        const auto moved = (d.array() != 0).count();
-        if (moved == 0 || (!options.full_neighbourhood && moved > 1)) continue;
-        bool ok = true;
-        for (int a = 0; a < 3; ++a) ok = ok && (d[a] == 0 || allowed[a]);
-        if (ok) offsets.push_back(d);
-      }
-    }
-  }
-  return offsets;
-}
-
-// A neighbour offset as index deltas and as a linear delta, for loops without Eigen in them.
+// A neighbour one step may move to, as index deltas and as a linear delta in the grid.
 struct Neighbour {
   int dx, dy, dz;
   int64_t linear;
 };
 
-std::vector<Neighbour> Neighbours(const OccupancyGrid& grid,
-                                  const std::vector<Eigen::Vector3i>& offsets) {
+// The neighbours of `options` in `grid`; INVALID_ARGUMENT when the options are invalid.
+Result<std::vector<Neighbour>> NeighboursFor(const OccupancyGrid& grid,
+                                             const MorphologyOptions& options) {
+  std::string why;
+  if (!options.IsValid(&why)) return Status::InvalidArgument("MorphologyOptions: " + why);
+  const bool allowed[3] = {options.along_x, options.along_y, options.along_z};
   const int64_t nx = grid.size().x(), nxy = nx * grid.size().y();
   std::vector<Neighbour> out;
-  out.reserve(offsets.size());
-  for (const Eigen::Vector3i& d : offsets) {
-    out.push_back({d.x(), d.y(), d.z(), d.z() * nxy + d.y() * nx + d.x()});
+  for (int dz = -1; dz <= 1; ++dz) {
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int d[3] = {dx, dy, dz};
+        int moved = 0;
+        bool ok = true;
+        for (int a = 0; a < 3; ++a) {
+          moved += d[a] != 0 ? 1 : 0;
+          ok = ok && (d[a] == 0 || allowed[a]);
+        }
+        if (moved == 0 || (!options.full_neighbourhood && moved > 1) || !ok) continue;
+        out.push_back({dx, dy, dz, dz * nxy + dy * nx + dx});
+      }
+    }
   }
   return out;
+}
+
+bool InGrid(int i, int j, int k, int nx, int ny, int nz) {
+  return i >= 0 && i < nx && j >= 0 && j < ny && k >= 0 && k < nz;
 }
 
 // One step: every voxel in state `from` with a neighbour in state `trigger` becomes `to`; the
@@ -60,10 +59,7 @@ OccupancyGrid Step(const OccupancyGrid& in, const std::vector<Neighbour>& neighb
         if (src[v] != from) continue;
         const bool inside = row_inside && i > 0 && i + 1 < nx;
         for (const Neighbour& n : neighbours) {
-          if (!inside) {
-            const int qi = i + n.dx, qj = j + n.dy, qk = k + n.dz;
-            if (qi < 0 || qi >= nx || qj < 0 || qj >= ny || qk < 0 || qk >= nz) continue;
-          }
+          if (!inside && !InGrid(i + n.dx, j + n.dy, k + n.dz, nx, ny, nz)) continue;
           if (src[v + n.linear] == trigger) {
             dst[v] = to;
             break;
@@ -77,11 +73,10 @@ OccupancyGrid Step(const OccupancyGrid& in, const std::vector<Neighbour>& neighb
 
 Result<OccupancyGrid> Apply(const OccupancyGrid& grid, const MorphologyOptions& options,
                             VoxelState from, VoxelState trigger, VoxelState to) {
-  std::string why;
-  if (!options.IsValid(&why)) return Status::InvalidArgument("MorphologyOptions: " + why);
-  const std::vector<Neighbour> neighbours = Neighbours(grid, Offsets(options));
+  auto neighbours = NeighboursFor(grid, options);
+  if (!neighbours.ok()) return neighbours.status();
   OccupancyGrid out = grid;
-  for (int s = 0; s < options.steps; ++s) out = Step(out, neighbours, from, trigger, to);
+  for (int s = 0; s < options.steps; ++s) out = Step(out, *neighbours, from, trigger, to);
   return out;
 }
 
@@ -109,9 +104,8 @@ Result<OccupancyGrid> ErodeOccupied(const OccupancyGrid& grid, const MorphologyO
 
 Result<std::vector<uint8_t>> StepsToOccupied(const OccupancyGrid& grid,
                                              const MorphologyOptions& options) {
-  std::string why;
-  if (!options.IsValid(&why)) return Status::InvalidArgument("MorphologyOptions: " + why);
-  const std::vector<Neighbour> neighbours = Neighbours(grid, Offsets(options));
+  auto neighbours = NeighboursFor(grid, options);
+  if (!neighbours.ok()) return neighbours.status();
   const uint8_t far = static_cast<uint8_t>(options.steps + 1);
   std::vector<uint8_t> steps(static_cast<size_t>(grid.num_voxels()), far);
   std::vector<int64_t> front, next;
@@ -129,9 +123,8 @@ Result<std::vector<uint8_t>> StepsToOccupied(const OccupancyGrid& grid,
       const int i = static_cast<int>(v % nx);
       const int j = static_cast<int>((v / nx) % ny);
       const int k = static_cast<int>(v / nxy);
-      for (const Neighbour& n : neighbours) {
-        const int qi = i + n.dx, qj = j + n.dy, qk = k + n.dz;
-        if (qi < 0 || qi >= nx || qj < 0 || qj >= ny || qk < 0 || qk >= nz) continue;
+      for (const Neighbour& n : *neighbours) {
+        if (!InGrid(i + n.dx, j + n.dy, k + n.dz, nx, ny, nz)) continue;
         uint8_t& w = steps[static_cast<size_t>(v + n.linear)];
         if (w != far) continue;
         w = static_cast<uint8_t>(s);

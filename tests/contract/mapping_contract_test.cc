@@ -875,7 +875,9 @@ TEST(MapperTest, LiveFramesWithGroundTruthBecomeKeyframes) {
   }
   FrameInput wrong = Frame(1);  // 4x4: not the rig's size
   mapper.SubmitLiveFrame(wrong);
-  for (int i = 0; i < 600; ++i) {
+  // Up to 2 minutes for the worker to map the queued keyframes: the ASan build sharing 2 cores with
+  // another test took over 30 s in a fresh-clone CI run. The loop ends as soon as they are done.
+  for (int i = 0; i < 2400; ++i) {
     const MapperStatus s = mapper.GetStatus();
     if (s.queue_depth == 0 && s.keyframes == s.keyframes_selected) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(50));

@@ -13,16 +13,15 @@ endfunction()
 
 # mav_add_test(<name> SOURCES ... [LIBS ...] [LABELS ...] [TIMEOUT s])
 # One GoogleTest executable registered with CTest as one test (gtest handles the cases inside;
-# per-case output is in the ctest log). Tests run from the build directory; MAV_SOURCE_DIR and
-# MAV_BINARY_DIR point at the trees so tests can find bin/ and tests/data/.
+# per-case output is in the ctest log). Tests run from the build directory;
+# tests/common/build_paths.h tells them where the trees are (bin/, tests/data/).
 function(mav_add_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gmock GTest::gtest_main Threads::Threads)
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} mav::build_paths GTest::gtest GTest::gmock
+                                        GTest::gtest_main Threads::Threads)
   # Test helpers shared across folders are included as "tests/common/<file>.h".
   target_include_directories(${name} PRIVATE ${CMAKE_SOURCE_DIR})
-  target_compile_definitions(${name} PRIVATE MAV_SOURCE_DIR="${CMAKE_SOURCE_DIR}"
-                                             MAV_BINARY_DIR="${CMAKE_BINARY_DIR}")
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin/tests)
   add_test(NAME ${name} COMMAND ${name} WORKING_DIRECTORY ${CMAKE_BINARY_DIR})
   if(NOT ARG_TIMEOUT)
@@ -39,7 +38,7 @@ endfunction()
 function(mav_add_benchmark name)
   cmake_parse_arguments(ARG "" "" "SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_LIBS} benchmark::benchmark Threads::Threads)
-  target_compile_definitions(${name} PRIVATE MAV_SOURCE_DIR="${CMAKE_SOURCE_DIR}")
+  target_link_libraries(${name} PRIVATE ${ARG_LIBS} mav::build_paths benchmark::benchmark
+                                        Threads::Threads)
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${CMAKE_BINARY_DIR}/bin/benchmarks)
 endfunction()

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer targets (tests/fuzz) with clang in build-fuzz/ (its own build directory;
-# address + undefined sanitizers, coverage instrumentation) and runs each for a short time on a
-# copy of its seed corpus (tests/fuzz/corpus/<target>/). Fails if any target crashes, leaks,
-# times out on an input or trips a sanitizer; the input is kept in build-fuzz/fuzz-artifacts/.
+# Builds the libFuzzer targets (tests/fuzz) with clang in build-asan/ (the tree of the sanitizer
+# stage, tools/ci-clang-tree.sh: address + undefined sanitizers, coverage instrumentation on the
+# fuzzed libraries) and runs each for a short time on a copy of its seed corpus
+# (tests/fuzz/corpus/<target>/). Fails if any target crashes, leaks, times out on an input or
+# trips a sanitizer; the input is kept in build-asan/fuzz-artifacts/.
 #
 #   tools/ci-fuzz-smoke.sh [--build-dir DIR] [--jobs N] [--seconds S] [--parallel P]
 #                          [--cpu C] [--no-build] [TARGET...]
@@ -11,11 +12,11 @@
 # available; --cpu C pins every run to core C), every target of tests/fuzz/CMakeLists.txt
 # except octomap_bt_raw_fuzzer (raw OctoMap, expected to crash: docs/quality.md). The 10-minute
 # runs of docs/quality.md use --seconds 600 --parallel 1 --cpu 1. The repository's corpus is
-# never modified; the grown corpora stay in build-fuzz/fuzz-work/corpus/.
+# never modified; the grown corpora stay in build-asan/fuzz-work/corpus/.
 set -euo pipefail
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-build_dir="$repo/build-fuzz"
+build_dir="$repo/build-asan"
 jobs=2
 seconds=30
 parallel=2
@@ -49,18 +50,8 @@ if [[ ${#targets[@]} -eq 0 ]]; then
 fi
 
 if [[ $do_build -eq 1 ]]; then
-  # The clang toolchain (and the project's own packages) if missing: a clean CI machine has
-  # only what the project's files install.
-  "$repo/deploy/setup.sh" --no-build
-  "$repo/deploy/setup.sh" --packages "$repo/deploy/packages-quality.txt" --no-build
-  command -v clang++ >/dev/null || { log "clang++ not found (deploy/packages-quality.txt)"; exit 2; }
-  mkdir -p "$build_dir"
-  flags="-O1 -gline-tables-only -DNDEBUG"
-  CC=clang CXX=clang++ cmake -S "$repo" -B "$build_dir" -DMAV_FUZZ=ON \
-    -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$flags" \
-    -DCMAKE_C_FLAGS_RELWITHDEBINFO="$flags" -DMAV_BUILD_TESTS=OFF \
-    -DMAV_BUILD_SERVICES=ON -DMAV_BUILD_BENCHMARKS=OFF >"$build_dir/configure.log" 2>&1 ||
-    { cat "$build_dir/configure.log" >&2; exit 1; }
+  # The sanitizer stage's tree: the libraries it built are reused (tools/ci-clang-tree.sh).
+  "$repo/tools/ci-clang-tree.sh" "$build_dir"
   log "building ${#targets[@]} fuzz targets with $jobs jobs in $build_dir"
   cmake --build "$build_dir" -j "$jobs" --target "${targets[@]}"
   log "build done in $(( $(date +%s) - start )) s"

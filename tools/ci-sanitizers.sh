@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# AddressSanitizer + UndefinedBehaviorSanitizer pass: configures build-asan/ (its own build
-# directory), builds only the unit and contract test executables (and the tools they run), runs
-# them under ctest, and fails on any sanitizer report, also one from a child process whose
-# failure a test expected (reports go to files, checked at the end).
+# AddressSanitizer + UndefinedBehaviorSanitizer pass: configures build-asan/ (the clang tree it
+# shares with the fuzz stage: tools/ci-clang-tree.sh), builds only the unit and contract test
+# executables (and the tools they run), runs them under ctest, and fails on any sanitizer
+# report, also one from a child process whose failure a test expected (reports go to files,
+# checked at the end).
 #
 #   tools/ci-sanitizers.sh [--build-dir DIR] [--jobs N] [--labels REGEX] [--no-build]
 #
@@ -22,7 +23,7 @@ while [[ $# -gt 0 ]]; do
     --jobs|-j) jobs="$2"; shift 2 ;;
     --labels|-L) labels="$2"; shift 2 ;;
     --no-build) do_build=0; shift ;;
-    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,11p' "$0"; exit 0 ;;
     *) echo "ci-sanitizers.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
@@ -34,21 +35,8 @@ log() { printf '\033[1m[sanitizers]\033[0m %s\n' "$*" >&2; }
 start=$(date +%s)
 
 if [[ $do_build -eq 1 ]]; then
-  # The clang toolchain (and the project's own packages) if missing: a clean CI machine has
-  # only what the project's files install.
-  "$repo/deploy/setup.sh" --no-build
-  "$repo/deploy/setup.sh" --packages "$repo/deploy/packages-quality.txt" --no-build
-  command -v clang++ >/dev/null || { log "clang++ not found (deploy/packages-quality.txt)"; exit 2; }
-  # clang: UBSan reports go to files like ASan's (cmake/MavSanitize.cmake says why). -O1: most of
-  # -O2's speed for the tests at a fraction of the compile time; line tables are enough for
-  # symbolised stacks; NDEBUG as in the Release build that ./test.sh runs.
-  mkdir -p "$build_dir"
-  flags="-O1 -gline-tables-only -DNDEBUG"
-  CC=clang CXX=clang++ cmake -S "$repo" -B "$build_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="$flags" -DCMAKE_C_FLAGS_RELWITHDEBINFO="$flags" \
-    -DMAV_SANITIZE=address,undefined -DMAV_BUILD_TESTS=ON -DMAV_BUILD_SERVICES=ON \
-    -DMAV_BUILD_BENCHMARKS=OFF >"$build_dir/configure.log" 2>&1 ||
-    { cat "$build_dir/configure.log" >&2; exit 1; }
+  # The one clang tree of the quality gates, shared with the fuzz stage (tools/ci-clang-tree.sh).
+  "$repo/tools/ci-clang-tree.sh" "$build_dir"
   # The test executables of the chosen labels are the targets (mav_add_test names both alike).
   mapfile -t targets < <(cd "$build_dir" && ctest -N -L "$labels" | sed -n 's/^ *Test *#[0-9]*: //p')
   [[ ${#targets[@]} -gt 0 ]] || { log "no test matches -L '$labels'"; exit 1; }

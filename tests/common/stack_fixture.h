@@ -20,6 +20,7 @@
 #include <grpcpp/create_channel.h>
 #include <grpcpp/security/credentials.h>
 
+#include "tests/common/build_paths.h"
 #include "tests/common/stack_process.h"
 #include "tests/common/test_domain.h"
 
@@ -41,7 +42,7 @@ class Stack {
     for (const auto& [name, target] : targets_) {
       while (target == "127.0.0.1:" + std::to_string(port)) port = FreeTcpPort();
     }
-    std::vector<std::string> argv = {std::string(MAV_BINARY_DIR) + "/bin/" + binary, "--port",
+    std::vector<std::string> argv = {mav::testing::BinaryDir() + "/bin/" + binary, "--port",
                                      std::to_string(port), "--dds-domain", std::to_string(domain_)};
     argv.insert(argv.end(), extra.begin(), extra.end());
     auto child = std::make_unique<Child>(argv, Log(binary));
@@ -63,7 +64,7 @@ class Stack {
   }
 
  private:
-  static std::string LogDir() { return std::string(MAV_BINARY_DIR) + "/Testing"; }
+  static std::string LogDir() { return mav::testing::BinaryDir() + "/Testing"; }
 
   int64_t domain_;
   std::map<std::string, std::unique_ptr<Child>> children_;

@@ -31,6 +31,7 @@
 #include "mav/transport/grpc_server.h"
 #include "services/planning/planner_core.h"
 #include "services/planning/planning_service.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::planning_service {
 namespace {
@@ -38,7 +39,7 @@ namespace {
 using grpc::StatusCode;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-const std::string kPowerPlant = MAV_SOURCE_DIR "/maps/power_plant.bt";
+const std::string kPowerPlant = mav::testing::SourceDir() + "/maps/power_plant.bt";
 
 std::chrono::system_clock::time_point Deadline(double seconds) {
   return std::chrono::system_clock::now() +
@@ -46,7 +47,7 @@ std::chrono::system_clock::time_point Deadline(double seconds) {
 }
 
 std::string TestDir() {
-  std::string dir = std::string(MAV_BINARY_DIR) + "/Testing/planning_contract";
+  std::string dir = mav::testing::BinaryDir() + "/Testing/planning_contract";
   EXPECT_TRUE(MakeDirectories(dir).ok());
   return dir;
 }

@@ -16,6 +16,7 @@
 #include "mav/transport/grpc_server.h"
 #include "mav_sensors.h"
 #include "services/simulator/dds_io.h"
+#include "tests/common/build_paths.h"
 #include "tests/common/test_domain.h"
 
 namespace mav::transport {
@@ -142,7 +143,7 @@ TEST(DdsTest, ABrokenConfigFailsWithTheDdsReason) {
 TEST(DdsTest, TheDeployedConfigFileWorks) {
   DdsOptions options;
   options.domain = TestDomain(3);
-  options.config = std::string(MAV_SOURCE_DIR) + "/deploy/cyclonedds.xml";
+  options.config = mav::testing::SourceDir() + "/deploy/cyclonedds.xml";
   const auto participant = Participant::Create(options);
   EXPECT_TRUE(participant.ok()) << participant.status().ToString();
 }

@@ -38,13 +38,14 @@
 #include "mav/v1/simulator.grpc.pb.h"
 #include "mav_state.h"
 #include "services/control/convert.h"
+#include "tests/common/build_paths.h"
 #include "tests/common/stack_process.h"
 #include "tests/common/test_domain.h"
 
 namespace mav {
 namespace {
 
-const std::string kBinDir = std::string(MAV_BINARY_DIR) + "/bin";
+const std::string kBinDir = mav::testing::BinaryDir() + "/bin";
 
 using ::mav::test_support::Child;
 using ::mav::test_support::FreeTcpPort;
@@ -96,7 +97,7 @@ class ControlStackTest : public ::testing::Test {
     while (ctl_port == sim_port) ctl_port = FreeTcpPort();
     sim_target_ = "127.0.0.1:" + std::to_string(sim_port);
     ctl_target_ = "127.0.0.1:" + std::to_string(ctl_port);
-    const std::string logs = std::string(MAV_BINARY_DIR) + "/Testing";
+    const std::string logs = mav::testing::BinaryDir() + "/Testing";
     std::system(("mkdir -p " + logs).c_str());
     const std::string tag = std::to_string(::getpid());
     sim_log_ = logs + "/control-stack-simulator-" + tag + ".log";
@@ -382,13 +383,13 @@ TEST_F(ControlStackTest, PlannedT4_3LegFlownThroughThePlanningService) {
     plan_port = FreeTcpPort();
   }
   const std::string plan_target = "127.0.0.1:" + std::to_string(plan_port);
-  const std::string plan_log = std::string(MAV_BINARY_DIR) + "/Testing/control-stack-planning-" +
+  const std::string plan_log = mav::testing::BinaryDir() + "/Testing/control-stack-planning-" +
                                std::to_string(::getpid()) + ".log";
   // A 20 000-milestone roadmap, built once into build/Testing and loaded afterwards (~3 s to
   // build on 2 cores; the default 100 000 takes ~15 s).
   Child planning({kBinDir + "/mav-planning", "--port", std::to_string(plan_port), "--map",
                   sim::DefaultPlantMapPath(), "--roadmap",
-                  std::string(MAV_BINARY_DIR) + "/Testing/control_stack_plant_20k.mavprm",
+                  mav::testing::BinaryDir() + "/Testing/control_stack_plant_20k.mavprm",
                   "--roadmap-milestones", "20000"},
                  plan_log);
   ASSERT_TRUE(planning.running());

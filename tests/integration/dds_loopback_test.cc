@@ -34,6 +34,7 @@
 #include "mav/v1/simulator.grpc.pb.h"
 #include "mav_sensors.h"
 #include "services/simulator/dds_io.h"
+#include "tests/common/build_paths.h"
 #include "tests/common/test_domain.h"
 
 extern char** environ;
@@ -41,7 +42,7 @@ extern char** environ;
 namespace mav {
 namespace {
 
-const std::string kBinDir = std::string(MAV_BINARY_DIR) + "/bin";
+const std::string kBinDir = mav::testing::BinaryDir() + "/bin";
 
 using ::mav::test_support::TestDomain;  // tests/common/test_domain.h
 
@@ -194,9 +195,9 @@ TEST(DdsLoopbackTest, SimulatorBinaryStreamsAScenarioEndToEnd) {
   const int64_t domain = TestDomain(23);
   const int port = FreeTcpPort();
   const std::string target = "127.0.0.1:" + std::to_string(port);
-  const std::string log = std::string(MAV_BINARY_DIR) + "/Testing/mav-simulator-e2e-" +
+  const std::string log = mav::testing::BinaryDir() + "/Testing/mav-simulator-e2e-" +
                           std::to_string(::getpid()) + ".log";
-  std::system(("mkdir -p " + std::string(MAV_BINARY_DIR) + "/Testing").c_str());
+  std::system(("mkdir -p " + mav::testing::BinaryDir() + "/Testing").c_str());
   Child simulator({kBinDir + "/mav-simulator", "--port", std::to_string(port), "--dds-domain",
                    std::to_string(domain)},
                   log);

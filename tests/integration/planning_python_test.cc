@@ -8,17 +8,18 @@
 #include <string>
 
 #include "mav/common/file.h"
+#include "tests/common/build_paths.h"
 #include "tests/common/stack_fixture.h"
 
 namespace mav {
 namespace {
 
-const std::string kPowerPlant = MAV_SOURCE_DIR "/maps/power_plant.bt";
+const std::string kPowerPlant = mav::testing::SourceDir() + "/maps/power_plant.bt";
 
 // Runs plan.py with `args`; returns its exit code and its output in *log.
 int RunPlanPy(const std::vector<std::string>& args, const std::string& log_path, std::string* log) {
-  std::vector<std::string> argv = {MAV_PYTHON3, MAV_SOURCE_DIR "/clients/python/plan.py", "--stubs",
-                                   MAV_BINARY_DIR "/python"};
+  std::vector<std::string> argv = {MAV_PYTHON3, mav::testing::SourceDir() + "/clients/python/plan.py", "--stubs",
+                                   mav::testing::BinaryDir() + "/python"};
   argv.insert(argv.end(), args.begin(), args.end());
   test_support::Child child(argv, log_path);
   const std::optional<int> rc = child.Wait(std::chrono::seconds(30));
@@ -28,12 +29,12 @@ int RunPlanPy(const std::vector<std::string>& args, const std::string& log_path,
 
 TEST(PlanningPythonTest, PlanPyPlansThroughTheService) {
   test_support::Stack stack(/*domain_key=*/61);
-  const std::string roadmap = MAV_BINARY_DIR "/Testing/planning_python_5k.mavprm";
+  const std::string roadmap = mav::testing::BinaryDir() + "/Testing/planning_python_5k.mavprm";
   const std::string target =
       stack.Start("mav-planning", "mav.v1.Planning",
                   {"--map", kPowerPlant, "--roadmap", roadmap, "--roadmap-milestones", "5000"});
   ASSERT_FALSE(target.empty()) << *ReadFileToString(stack.Log("mav-planning"));
-  const std::string log_path = MAV_BINARY_DIR "/Testing/planning_python_test.log";
+  const std::string log_path = mav::testing::BinaryDir() + "/Testing/planning_python_test.log";
   std::string log;
   // The first t4_3 leg with a waypoint, samples every 0.5 s.
   EXPECT_EQ(RunPlanPy({"--address", target, "--start", "2", "-27", "15", "--via", "20", "-15", "15",

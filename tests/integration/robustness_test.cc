@@ -15,6 +15,7 @@
 #include "mav/v1/localization.grpc.pb.h"
 #include "mav/v1/mapping.grpc.pb.h"
 #include "mav/v1/simulator.grpc.pb.h"
+#include "tests/common/build_paths.h"
 #include "tests/common/stack_fixture.h"
 
 namespace mav {
@@ -89,7 +90,7 @@ TEST(RobustnessTest, BurstsKillAndRestartAndABusyPort) {
 
   // A second server on a busy port fails at once, naming the address.
   const std::string port = sim.substr(sim.rfind(':') + 1);
-  Child second({std::string(MAV_BINARY_DIR) + "/bin/mav-simulator", "--port", port, "--dds-domain",
+  Child second({mav::testing::BinaryDir() + "/bin/mav-simulator", "--port", port, "--dds-domain",
                 std::to_string(stack.domain())},
                stack.Log("mav-simulator") + ".second");
   EXPECT_EQ(second.Wait(std::chrono::seconds(10)), std::optional<int>(1));
@@ -98,7 +99,7 @@ TEST(RobustnessTest, BurstsKillAndRestartAndABusyPort) {
   // kill -9, then a restart on the same port serves again.
   stack.Process("mav-simulator")->Signal(SIGKILL);
   EXPECT_TRUE(stack.Process("mav-simulator")->Wait(std::chrono::seconds(10)).has_value());
-  Child restarted({std::string(MAV_BINARY_DIR) + "/bin/mav-simulator", "--port", port,
+  Child restarted({mav::testing::BinaryDir() + "/bin/mav-simulator", "--port", port,
                    "--dds-domain", std::to_string(stack.domain())},
                   stack.Log("mav-simulator") + ".restarted");
   ASSERT_TRUE(restarted.running());

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "mav/common/file.h"
+#include "tests/common/build_paths.h"
 #include "tests/common/stack_fixture.h"
 
 namespace mav {
@@ -21,14 +22,14 @@ TEST(PlanningLoadTest, NoErrorsAndABoundedP99) {
   test_support::Stack stack(/*domain_key=*/62);
   const std::string target = stack.Start(
       "mav-planning", "mav.v1.Planning",
-      {"--map", MAV_SOURCE_DIR "/maps/power_plant.bt", "--roadmap",
-       MAV_BINARY_DIR "/Testing/planning_load_20k.mavprm", "--roadmap-milestones", "20000"});
+      {"--map", mav::testing::SourceDir() + "/maps/power_plant.bt", "--roadmap",
+       mav::testing::BinaryDir() + "/Testing/planning_load_20k.mavprm", "--roadmap-milestones", "20000"});
   ASSERT_FALSE(target.empty()) << *ReadFileToString(stack.Log("mav-planning"));
-  const std::string log_path = MAV_BINARY_DIR "/Testing/planning_load_test.log";
+  const std::string log_path = mav::testing::BinaryDir() + "/Testing/planning_load_test.log";
   test_support::Child load(
-      {MAV_BINARY_DIR "/bin/mav-load", "planning", "--address", target, "--concurrency", "4",
+      {mav::testing::BinaryDir() + "/bin/mav-load", "planning", "--address", target, "--concurrency", "4",
        "--duration", "8", "--queries",
-       MAV_SOURCE_DIR "/tests/data/planning/power_plant_queries.txt", "--deadline-ms", "2000",
+       mav::testing::SourceDir() + "/tests/data/planning/power_plant_queries.txt", "--deadline-ms", "2000",
        "--fail-on-errors", "--require-success", "--max-p99-ms", "250"},
       log_path);
   const std::optional<int> rc = load.Wait(std::chrono::seconds(60));

@@ -10,6 +10,7 @@
 
 #include "mav/dataset/euroc.h"
 #include "test_util.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::dataset {
 namespace {
@@ -115,7 +116,7 @@ TEST(EurocCsv, CameraRowsStayStrictAndFileNamesAreQuotedShortly) {
 
 TEST(EurocCsv, SensorYamlFromMemoryNamesTheGivenName) {
   const std::string yaml =
-      ReadFile(std::string(MAV_SOURCE_DIR) + "/tests/data/euroc_tiny/mav0/imu0/sensor.yaml");
+      ReadFile(mav::testing::SourceDir() + "/tests/data/euroc_tiny/mav0/imu0/sensor.yaml");
   auto imu = ParseImuSensorYaml(yaml, "upload:imu0/sensor.yaml");
   ASSERT_TRUE(imu.ok()) << imu.status().ToString();
   EXPECT_EQ(imu->rate_hz, 200);
@@ -131,7 +132,7 @@ class EurocOpen : public ::testing::Test {
  protected:
   void SetUp() override {
     root_ = dir_.path() + "/seq";
-    fs::copy(std::string(MAV_SOURCE_DIR) + "/tests/data/euroc_tiny", root_,
+    fs::copy(mav::testing::SourceDir() + "/tests/data/euroc_tiny", root_,
              fs::copy_options::recursive);
   }
   std::string Path(const std::string& rel) const { return root_ + "/mav0/" + rel; }

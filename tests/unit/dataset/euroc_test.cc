@@ -14,6 +14,7 @@
 #include "mav/camera/stereo.h"
 #include "mav/dataset/stereo_pair.h"
 #include "test_util.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::dataset {
 namespace {
@@ -275,7 +276,7 @@ class EurocFixture : public ::testing::Test {
  protected:
   void SetUp() override {
     root_ = dir_.path() + "/seq";
-    fs::copy(std::string(MAV_SOURCE_DIR) + "/tests/data/euroc_tiny", root_,
+    fs::copy(mav::testing::SourceDir() + "/tests/data/euroc_tiny", root_,
              fs::copy_options::recursive);
     for (int cam = 0; cam < 2; ++cam) {
       const std::string folder = root_ + "/mav0/cam" + std::to_string(cam);

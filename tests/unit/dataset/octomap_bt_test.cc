@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "test_util.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::dataset {
 namespace {
@@ -51,7 +52,7 @@ TEST(OctomapBt, SmallTreeRoundTrips) {
 }
 
 TEST(OctomapBt, ReadsThePowerPlantMap) {
-  const std::string path = std::string(MAV_SOURCE_DIR) + "/../shared/data/power_plant.bt";
+  const std::string path = mav::testing::SourceDir() + "/../shared/data/power_plant.bt";
   if (!std::filesystem::exists(path)) GTEST_SKIP() << path << " is not here";
   const std::string bytes = testing::ReadFile(path);
   OctomapBinaryInfo info;

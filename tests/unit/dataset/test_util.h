@@ -13,6 +13,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/common/build_paths.h"
+
 namespace mav::dataset::testing {
 
 class TempDir {
@@ -56,7 +58,7 @@ struct RunResult {
 // stalling it.
 inline RunResult RunTool(const std::string& binary, const std::string& args, int timeout_s = 120) {
   const std::string command = "timeout " + std::to_string(timeout_s) + " " +
-                              std::string(MAV_BINARY_DIR) + "/bin/" + binary + " " + args + " 2>&1";
+                              mav::testing::BinaryDir() + "/bin/" + binary + " " + args + " 2>&1";
   RunResult result;
   const auto start = std::chrono::steady_clock::now();
   FILE* pipe = popen(command.c_str(), "r");

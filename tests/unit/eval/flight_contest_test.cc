@@ -9,6 +9,7 @@
 #include "mav/eval/flight_mission.h"
 #include "mav/planning/trajectory.h"
 #include "mav/sim/flight_task.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::eval {
 namespace {
@@ -94,7 +95,7 @@ TEST(FlightContestTest, PlannedLegsNeedAPlanner) {
 // on a given trajectory, the scoring of the leg) with a hand-made collision-free leg: straight
 // up above the spawn point, which is open sky in power_plant.bt.
 TEST(FlightContestTest, PlantLegOnAHandMadeTrajectory) {
-  const std::string map = std::string(MAV_SOURCE_DIR) + "/maps/power_plant.bt";
+  const std::string map = mav::testing::SourceDir() + "/maps/power_plant.bt";
   ASSERT_TRUE(PathExists(map)) << map << " is missing from the source tree";
   dataset::FlightTask t = *sim::BuiltinFlightTask("t4_3", map);
   t.goals = {{10, Eigen::Vector3d(0, 0, 2), 0}, {20, Eigen::Vector3d(0, 0, 6), 0}};

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "mav/common/file.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::mapping {
 namespace {
@@ -18,7 +19,7 @@ TriangleMesh Tetrahedron() {
 }
 
 std::string TempPath(const std::string& name) {
-  return std::string(MAV_BINARY_DIR) + "/mapping_mesh_test_" + name;
+  return mav::testing::BinaryDir() + "/mapping_mesh_test_" + name;
 }
 
 TEST(PlyTest, RoundTripBothEncodings) {

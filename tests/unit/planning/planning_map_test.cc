@@ -6,6 +6,7 @@
 
 #include "mav/common/file.h"
 #include "test_maps.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::planning {
 namespace {
@@ -216,7 +217,7 @@ TEST(PlanningMapErrorsTest, TerminationStopsTheLoad) {
 
 TEST(PlanningMapErrorsTest, FileAndBytesGiveTheSameMap) {
   const std::string bytes = RoomBytes();
-  const std::string path = std::string(MAV_BINARY_DIR) + "/planning_map_test_room.bt";
+  const std::string path = mav::testing::BinaryDir() + "/planning_map_test_room.bt";
   ASSERT_TRUE(WriteStringToFileAtomic(path, bytes).ok());
   auto from_file = PlanningMap::LoadFile(path, {});
   auto from_bytes = PlanningMap::LoadBytes(bytes, "room", {});

@@ -11,11 +11,12 @@
 #include "mav/planning/planner.h"
 #include "mav/planning/planning_map.h"
 #include "mav/planning/reference_path.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::planning {
 namespace {
 
-const char* kMapPath = MAV_SOURCE_DIR "/maps/power_plant.bt";
+const std::string kMapPath = mav::testing::SourceDir() + "/maps/power_plant.bt";
 
 // The exact clearance every 1 cm of the trajectory.
 double MinClearance(const ClearanceMap& map, const PlanResult& r) {

@@ -7,6 +7,7 @@
 
 #include "mav/common/file.h"
 #include "test_maps.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::planning {
 namespace {
@@ -92,7 +93,7 @@ TEST_F(RoadmapTest, NearestMatchesBruteForce) {
 TEST_F(RoadmapTest, SaveLoadRoundTrip) {
   auto built = Roadmap::Build(map(), SmallOptions(3));
   ASSERT_TRUE(built.ok());
-  const std::string path = std::string(MAV_BINARY_DIR) + "/roadmap_test.mavprm";
+  const std::string path = mav::testing::BinaryDir() + "/roadmap_test.mavprm";
   ASSERT_TRUE((*built)->Save(path).ok());
   auto loaded = Roadmap::Load(path, map());
   ASSERT_TRUE(loaded.ok()) << loaded.status().ToString();
@@ -116,7 +117,7 @@ TEST_F(RoadmapTest, CorruptFilesAreDataLossNamingTheFile) {
   ASSERT_TRUE(built.ok());
   const std::string good = (*built)->Serialize();
   const auto expect_loss = [&](const std::string& bytes, const std::string& what) {
-    const std::string path = std::string(MAV_BINARY_DIR) + "/roadmap_test_corrupt.mavprm";
+    const std::string path = mav::testing::BinaryDir() + "/roadmap_test_corrupt.mavprm";
     ASSERT_TRUE(WriteStringToFileAtomic(path, bytes).ok());
     auto r = Roadmap::Load(path, map());
     EXPECT_EQ(r.status().code(), StatusCode::kDataLoss) << what;

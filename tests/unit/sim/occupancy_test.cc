@@ -15,6 +15,7 @@
 #include "mav/sim/occupancy.h"
 #include "mav/sim/presets.h"
 #include "mav/sim/world.h"
+#include "tests/common/build_paths.h"
 
 namespace mav::sim {
 namespace {
@@ -38,7 +39,7 @@ class TestRng {
 };
 
 std::string TempPath(const std::string& name) {
-  return std::string(MAV_BINARY_DIR) + "/occupancy_test_" + name;
+  return mav::testing::BinaryDir() + "/occupancy_test_" + name;
 }
 
 World SmallWorld() {

@@ -18,7 +18,8 @@ const std::string kPowerPlant = mav::testing::SourceDir() + "/maps/power_plant.b
 
 // Runs plan.py with `args`; returns its exit code and its output in *log.
 int RunPlanPy(const std::vector<std::string>& args, const std::string& log_path, std::string* log) {
-  std::vector<std::string> argv = {MAV_PYTHON3, mav::testing::SourceDir() + "/clients/python/plan.py", "--stubs",
+  std::vector<std::string> argv = {MAV_PYTHON3,
+                                   mav::testing::SourceDir() + "/clients/python/plan.py", "--stubs",
                                    mav::testing::BinaryDir() + "/python"};
   argv.insert(argv.end(), args.begin(), args.end());
   test_support::Child child(argv, log_path);

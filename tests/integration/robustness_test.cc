@@ -99,8 +99,8 @@ TEST(RobustnessTest, BurstsKillAndRestartAndABusyPort) {
   // kill -9, then a restart on the same port serves again.
   stack.Process("mav-simulator")->Signal(SIGKILL);
   EXPECT_TRUE(stack.Process("mav-simulator")->Wait(std::chrono::seconds(10)).has_value());
-  Child restarted({mav::testing::BinaryDir() + "/bin/mav-simulator", "--port", port,
-                   "--dds-domain", std::to_string(stack.domain())},
+  Child restarted({mav::testing::BinaryDir() + "/bin/mav-simulator", "--port", port, "--dds-domain",
+                   std::to_string(stack.domain())},
                   stack.Log("mav-simulator") + ".restarted");
   ASSERT_TRUE(restarted.running());
   EXPECT_TRUE(WaitServing(sim, "mav.v1.Simulator"))

@@ -20,17 +20,18 @@ namespace {
 
 TEST(PlanningLoadTest, NoErrorsAndABoundedP99) {
   test_support::Stack stack(/*domain_key=*/62);
-  const std::string target = stack.Start(
-      "mav-planning", "mav.v1.Planning",
-      {"--map", mav::testing::SourceDir() + "/maps/power_plant.bt", "--roadmap",
-       mav::testing::BinaryDir() + "/Testing/planning_load_20k.mavprm", "--roadmap-milestones", "20000"});
+  const std::string target =
+      stack.Start("mav-planning", "mav.v1.Planning",
+                  {"--map", mav::testing::SourceDir() + "/maps/power_plant.bt", "--roadmap",
+                   mav::testing::BinaryDir() + "/Testing/planning_load_20k.mavprm",
+                   "--roadmap-milestones", "20000"});
   ASSERT_FALSE(target.empty()) << *ReadFileToString(stack.Log("mav-planning"));
   const std::string log_path = mav::testing::BinaryDir() + "/Testing/planning_load_test.log";
   test_support::Child load(
-      {mav::testing::BinaryDir() + "/bin/mav-load", "planning", "--address", target, "--concurrency", "4",
-       "--duration", "8", "--queries",
-       mav::testing::SourceDir() + "/tests/data/planning/power_plant_queries.txt", "--deadline-ms", "2000",
-       "--fail-on-errors", "--require-success", "--max-p99-ms", "250"},
+      {mav::testing::BinaryDir() + "/bin/mav-load", "planning", "--address", target,
+       "--concurrency", "4", "--duration", "8", "--queries",
+       mav::testing::SourceDir() + "/tests/data/planning/power_plant_queries.txt", "--deadline-ms",
+       "2000", "--fail-on-errors", "--require-success", "--max-p99-ms", "250"},
       log_path);
   const std::optional<int> rc = load.Wait(std::chrono::seconds(60));
   const std::string log = ReadFileToString(log_path).ok() ? *ReadFileToString(log_path) : "";

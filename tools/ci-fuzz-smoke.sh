@@ -38,9 +38,6 @@ while [[ $# -gt 0 ]]; do
   esac
 done
 
-# ccache does not hash the sanitizer ignore list; without this a changed list would be served
-# stale objects.
-export CCACHE_EXTRAFILES="$repo/cmake/sanitize-ignorelist.txt"
 log() { printf '\033[1m[fuzz]\033[0m %s\n' "$*" >&2; }
 start=$(date +%s)
 

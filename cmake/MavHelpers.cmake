@@ -14,7 +14,9 @@ endfunction()
 # mav_add_test(<name> SOURCES ... [LIBS ...] [LABELS ...] [TIMEOUT s])
 # One GoogleTest executable registered with CTest as one test (gtest handles the cases inside;
 # per-case output is in the ctest log). Tests run from the build directory;
-# tests/common/build_paths.h tells them where the trees are (bin/, tests/data/).
+# tests/common/build_paths.h tells them where the trees are (bin/, tests/data/). Labels: unit,
+# contract (both also run under the sanitizers), integration, load; add slow to a test that takes
+# over ~40 s in the sanitizer pass (docs/quality.md, "CI time").
 function(mav_add_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
@@ -32,6 +34,12 @@ function(mav_add_test name)
     math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 5")
   endif()
   set_tests_properties(${name} PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
+  # LABELS slow: over ~40 s in the sanitizer pass (docs/quality.md, "CI time"). ctest starts these
+  # first, so on two cores the long tests overlap rather than one running alone at the end: a
+  # fresh clone has no timing history (Testing/Temporary/CTestCostData.txt) to order them by.
+  if("slow" IN_LIST ARG_LABELS)
+    set_tests_properties(${name} PROPERTIES COST 1000)
+  endif()
 endfunction()
 
 # mav_add_benchmark(<name> SOURCES ... [LIBS ...])

@@ -4,5 +4,5 @@
 mav_add_test(mapping_contract_test
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/mapping_contract_test.cc
   LIBS mav::mapping_service mav::sim ${OCTOMAP_LIBRARIES}
-  LABELS contract TIMEOUT 120)
+  LABELS contract slow TIMEOUT 120)
 target_include_directories(mapping_contract_test SYSTEM PRIVATE ${OCTOMAP_INCLUDE_DIRS})

@@ -4,4 +4,4 @@
 mav_add_test(planning_contract_test
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/planning_contract_test.cc
   LIBS mav::planning_service mav::dataset
-  LABELS contract TIMEOUT 180)
+  LABELS contract slow TIMEOUT 180)

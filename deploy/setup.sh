@@ -50,14 +50,6 @@ else
   log "all ${#packages[@]} Debian packages present"
 fi
 
-# ccache's default 5 GB holds less than CI's two trees (Release and the clang tree of the quality
-# gates, docs/quality.md): at the default, every run would evict what the next one needs. Raised
-# only while it is at the default; a size the user chose is kept.
-if command -v ccache >/dev/null && ccache -p 2>/dev/null | grep -q '^(default) max_size'; then
-  log "ccache: max_size 5 GB -> 16 GB (holds the Release and the sanitizer trees)"
-  ccache --max-size=16G >/dev/null
-fi
-
 [[ $do_build -eq 1 ]] || exit 0
 
 if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then

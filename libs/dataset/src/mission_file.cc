@@ -61,7 +61,7 @@ Status ParseGoal(const Fields& f, const YAML::Node& n, const std::string& path, 
 // Fields::CheckKeys on the top-level mapping, with the line of the first key it refuses.
 Status CheckTopLevelKeys(const Fields& f, const YAML::Node& root) {
   const std::set<std::string> known = {"world", "start", "altitude", "hover_s", "goals", "land"};
-  const Status status = f.CheckKeys(root, "", known);
+  Status status = f.CheckKeys(root, "", known);
   if (status.ok()) return status;
   for (const auto& kv : root) {
     if (!known.count(kv.first.as<std::string>())) return AtLine(kv.first, root, status);

@@ -4,7 +4,10 @@
 
 // GCC reports -Wmaybe-uninitialized inside Boost.Graph's edge iterators once they are inlined here
 // (a known false positive of boost::optional); the SYSTEM include does not silence inlined code.
+// Clang has no such warning (and would warn about the unknown group).
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 
 #include <boost/graph/adjacency_list.hpp>
 #include <boost/graph/boykov_kolmogorov_max_flow.hpp>

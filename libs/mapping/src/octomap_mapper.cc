@@ -18,8 +18,8 @@ namespace {
 // OctoMap addresses 2^16 leaf-sized cells per axis, the key of coordinate c being
 // floor(c / resolution) + 2^15.
 constexpr int kTreeDepth = 16;
-constexpr int64_t kKeyOffset = int64_t{1} << 15;
-constexpr int64_t kNumKeys = int64_t{1} << 16;
+constexpr int64_t kKeyOffset = int64_t{1} << (kTreeDepth - 1);
+constexpr int64_t kNumKeys = int64_t{1} << kTreeDepth;
 
 std::string MatTypeName(int type) {
   static const char* kDepths[] = {"8U", "8S", "16U", "16S", "32S", "32F", "64F", "16F"};

@@ -59,13 +59,6 @@ inline F4 Sqrt4(F4 a) {
 // Truncation toward zero (cvttps2dq); only used on values well inside the int range.
 inline I4 TruncToInt4(F4 a) { return __builtin_convertvector(a, I4); }
 inline F4 ToFloat4(I4 a) { return __builtin_convertvector(a, F4); }
-inline bool Any4(I4 m) {
-#if defined(__SSE2__)
-  return _mm_movemask_ps(reinterpret_cast<__m128>(m)) != 0;
-#else
-  return (m[0] | m[1] | m[2] | m[3]) != 0;
-#endif
-}
 inline bool All4(I4 m) {
 #if defined(__SSE2__)
   return _mm_movemask_ps(reinterpret_cast<__m128>(m)) == 0xf;

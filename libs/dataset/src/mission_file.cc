@@ -114,8 +114,6 @@ Status Parse(const YAML::Node& root, MissionSpec* mission) {
   return Status::Ok();
 }
 
-bool Finite(const Eigen::Vector3d& v) { return v.allFinite(); }
-
 }  // namespace
 
 bool MissionSpec::IsValid(std::string* why) const {
@@ -124,16 +122,17 @@ bool MissionSpec::IsValid(std::string* why) const {
     return false;
   };
   if (world.empty()) return fail("world: empty (a simulator preset)");
-  if (!Finite(start)) return fail("start: not finite");
+  if (!start.allFinite()) return fail("start: not finite");
   if (const std::string e = AltitudeError(altitude_m); !e.empty()) return fail("altitude: " + e);
   if (goals.empty()) return fail("goals: none (at least one)");
   if (goals.size() > kMaxGoals) return fail("goals: more than " + std::to_string(kMaxGoals));
   for (size_t i = 0; i < goals.size(); ++i) {
     const std::string path = "goals[" + std::to_string(i) + "]";
     const MissionGoal& g = goals[i];
-    if (!Finite(g.position)) return fail(path + ".position: not finite");
-    if (const std::string e = HoverError(g.hover_s); !e.empty())
+    if (!g.position.allFinite()) return fail(path + ".position: not finite");
+    if (const std::string e = HoverError(g.hover_s); !e.empty()) {
       return fail(path + ".hover_s: " + e);
+    }
     if (g.yaw_rad.has_value() && !std::isfinite(*g.yaw_rad)) {
       return fail(path + ".yaw_rad: not finite");
     }

@@ -11,5 +11,6 @@ int RunLocalization(const std::vector<std::string>& args);
 int RunMapping(const std::vector<std::string>& args);
 int RunControl(const std::vector<std::string>& args);
 int RunPlanning(const std::vector<std::string>& args);
+int RunMission(const std::vector<std::string>& args);
 
 }  // namespace mav::eval_cli

@@ -6,9 +6,8 @@
 #include "mav/common/file.h"
 
 namespace mav::eval_cli {
-namespace {
 
-std::string Quote(const std::string& s) {
+std::string JsonQuote(const std::string& s) {
   std::string out = "\"";
   for (char c : s) {
     if (c == '"' || c == '\\') {
@@ -25,7 +24,7 @@ std::string Quote(const std::string& s) {
   return out + "\"";
 }
 
-std::string Number(double v) {
+std::string JsonNumber(double v) {
   if (!std::isfinite(v)) return "null";  // JSON has no NaN/inf
   char buf[32];
   // Counts (voxels, box positions, points) exactly; other figures to 6 significant digits.
@@ -34,20 +33,22 @@ std::string Number(double v) {
   return buf;
 }
 
+namespace {
+
 std::string ScalarText(const JsonReport::Scalar& v) {
-  return std::holds_alternative<double>(v) ? Number(std::get<double>(v))
-                                           : Quote(std::get<std::string>(v));
+  return std::holds_alternative<double>(v) ? JsonNumber(std::get<double>(v))
+                                           : JsonQuote(std::get<std::string>(v));
 }
 
 std::string ValueText(const JsonReport::Value& v) {
-  if (std::holds_alternative<double>(v)) return Number(std::get<double>(v));
-  if (std::holds_alternative<std::string>(v)) return Quote(std::get<std::string>(v));
+  if (std::holds_alternative<double>(v)) return JsonNumber(std::get<double>(v));
+  if (std::holds_alternative<std::string>(v)) return JsonQuote(std::get<std::string>(v));
   const auto& records = std::get<std::vector<JsonReport::Record>>(v);
   std::string out = "[";
   for (size_t r = 0; r < records.size(); ++r) {
     out += (r == 0 ? "\n      {" : ",\n      {");
     for (size_t f = 0; f < records[r].size(); ++f) {
-      out += (f == 0 ? "" : ", ") + Quote(records[r][f].first) + ": " +
+      out += (f == 0 ? "" : ", ") + JsonQuote(records[r][f].first) + ": " +
              ScalarText(records[r][f].second);
     }
     out += "}";
@@ -75,10 +76,10 @@ void JsonReport::Set(const std::string& group, const std::string& metric, Value 
 std::string JsonReport::ToString() const {
   std::string out = "{\n";
   for (size_t g = 0; g < groups_.size(); ++g) {
-    out += "  " + Quote(groups_[g].first) + ": {";
+    out += "  " + JsonQuote(groups_[g].first) + ": {";
     const auto& metrics = groups_[g].second;
     for (size_t i = 0; i < metrics.size(); ++i) {
-      out += (i == 0 ? "\n    " : ",\n    ") + Quote(metrics[i].first) + ": ";
+      out += (i == 0 ? "\n    " : ",\n    ") + JsonQuote(metrics[i].first) + ": ";
       out += ValueText(metrics[i].second);
     }
     out += g + 1 < groups_.size() ? "\n  },\n" : "\n  }\n";

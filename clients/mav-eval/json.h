@@ -12,6 +12,11 @@
 
 namespace mav::eval_cli {
 
+// A JSON string literal (quotes, backslashes and control characters escaped).
+std::string JsonQuote(const std::string& s);
+// A JSON number: integers exactly, others to 6 significant digits; null for NaN or infinity.
+std::string JsonNumber(double v);
+
 class JsonReport {
  public:
   using Scalar = std::variant<double, std::string>;

@@ -4,6 +4,8 @@
 //   mav-eval control [--task T|all] [--controller paper|lee|all] [--task-file F] [--out DIR]
 //   mav-eval planning --map FILE.bt [--queries FILE] [--robot-radius M] [--seed S] [--out DIR]
 //                     [--json FILE]
+//   mav-eval mission --mission FILE [--seed S] [--pose-source vo|contest|truth] [--out DIR]
+//                    [--json FILE]
 
 #include <iostream>
 #include <string>
@@ -21,6 +23,7 @@ constexpr const char* kUsage =
     "  control        the EuRoC contest's flight tasks, scored (Sec. 3), paper vs Lee controller\n"
     "  planning       roadmap planner vs OMPL peers: path length, planning and flight time "
     "(Sec. 3)\n"
+    "  mission        a mission file flown in-process: vision in the loop, planning, control\n"
     "run 'mav-eval <command> --help' for the flags of a command\n";
 
 }  // namespace
@@ -36,6 +39,7 @@ int main(int argc, char** argv) {
   if (command == "mapping") return mav::eval_cli::RunMapping(args);
   if (command == "control") return mav::eval_cli::RunControl(args);
   if (command == "planning") return mav::eval_cli::RunPlanning(args);
+  if (command == "mission") return mav::eval_cli::RunMission(args);
   if (command == "--help" || command == "-h" || command == "help") {
     std::cout << kUsage;
     return 0;

@@ -111,41 +111,6 @@ Run ToRun(const PlanningMap& map, const Result<PlanResult>& r) {
   return run;
 }
 
-// The map seen from above: the top of the highest obstacle of each column inside the map.
-TopViewHeightMap HeightMap(const PlanningMap& map) {
-  TopViewHeightMap h;
-  const Eigen::Vector3i n = map.grid_size();
-  const Eigen::Vector3d origin = map.grid_origin();
-  const double cell = map.resolution();
-  const planning::Box& bounds = map.info().bounds;
-  h.origin = origin.head<2>();
-  h.cell = cell;
-  h.nx = n.x();
-  h.ny = n.y();
-  h.top_m.assign(static_cast<size_t>(h.nx) * h.ny, NAN);
-  h.z_min = bounds.min.z();
-  h.z_max = bounds.max.z();
-  for (int j = 0; j < n.y(); ++j) {
-    for (int i = 0; i < n.x(); ++i) {
-      const Eigen::Vector3d centre =
-          origin + (Eigen::Vector3d(i, j, 0).array() + 0.5).matrix() * cell;
-      if (centre.x() < bounds.min.x() || centre.x() > bounds.max.x() ||
-          centre.y() < bounds.min.y() || centre.y() > bounds.max.y()) {
-        continue;
-      }
-      for (int k = n.z() - 1; k >= 0; --k) {
-        const double z = origin.z() + (k + 0.5) * cell;
-        if (z < bounds.min.z() || z > bounds.max.z()) continue;
-        if (map.IsObstacleCell({i, j, k})) {
-          h.top_m[static_cast<size_t>(j) * h.nx + i] = static_cast<float>(z + 0.5 * cell);
-          break;
-        }
-      }
-    }
-  }
-  return h;
-}
-
 Status WriteCsv(const std::string& path, const geometry::PolynomialTrajectory& t) {
   std::ostringstream out;
   out << "t,x,y,z,vx,vy,vz,ax,ay,az,yaw\n";
@@ -465,7 +430,7 @@ int RunPlanning(const std::vector<std::string>& args) {
         series.push_back(std::move(line));
       }
     }
-    const TopViewHeightMap height = HeightMap(map);
+    const TopViewHeightMap height = HeightMapOf(map);
     if (Status s =
             WriteTopViewPlot(out_dir + "/top_view.png",
                              "planning on " + map_path + " (obstacles by height)", series, &height);

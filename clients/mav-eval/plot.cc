@@ -123,7 +123,11 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
     }
     const cv::Scalar colour(s.b, s.g, s.r);
     for (const std::vector<cv::Point>& pts : pieces) {
-      if (pts.size() > 1) cv::polylines(canvas, pts, false, colour, 2, cv::LINE_AA);
+      if (s.markers) {
+        for (const cv::Point& p : pts) cv::circle(canvas, p, 7, colour, cv::FILLED, cv::LINE_AA);
+      } else if (pts.size() > 1) {
+        cv::polylines(canvas, pts, false, colour, 2, cv::LINE_AA);
+      }
     }
     if (!pieces.front().empty()) {
       cv::circle(canvas, pieces.front().front(), 5, colour, cv::FILLED, cv::LINE_AA);

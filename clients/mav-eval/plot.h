@@ -1,6 +1,7 @@
 #pragma once
 // Top-view (x-y) trajectory plots like the paper's Figure 3, drawn with OpenCV.
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -8,12 +9,17 @@
 
 #include "mav/common/status.h"
 
+namespace mav::planning {
+class PlanningMap;
+}
+
 namespace mav::eval_cli {
 
 struct PlotSeries {
   std::string label;
   std::vector<Eigen::Vector3d> positions;  // world frame; x and y are drawn
   int b = 0, g = 0, r = 0;                 // colour
+  bool markers = false;                    // each position a filled circle, no line
 };
 
 // A map drawn under the series, seen from above: column (i, j) covers
@@ -26,6 +32,13 @@ struct TopViewHeightMap {
   std::vector<float> top_m;  // nx * ny, x fastest
   double z_min = 0, z_max = 1;
 };
+
+// The map seen from above: the top of the highest obstacle of each column inside the map's
+// bounds, counting only obstacles between z_min_m and z_max_m when given (e.g. below a room's
+// ceiling).
+TopViewHeightMap HeightMapOf(const planning::PlanningMap& map,
+                             double z_min_m = -std::numeric_limits<double>::infinity(),
+                             double z_max_m = std::numeric_limits<double>::infinity());
 
 // Writes a PNG with equal axis scales, a grid (1 m for rooms, 5 m up to a plant, at most 30 lines
 // per axis whatever the span), a legend and start markers. Series with an empty label get no

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "mav/common/time.h"
@@ -18,6 +19,15 @@ bool EstimatorOptions::IsValid(std::string* why) const {
   };
   if (!(buffer_s > 0 && buffer_s <= 10)) return fail("buffer_s: must be in (0, 10]");
   if (!(converge_s >= 0 && std::isfinite(converge_s))) return fail("converge_s: must be >= 0");
+  if (!(pose_gate_m >= 0 && std::isfinite(pose_gate_m))) {
+    return fail("pose_gate_m: must be >= 0 (0 = off)");
+  }
+  if (!(pose_gate_growth_mps >= 0 && std::isfinite(pose_gate_growth_mps))) {
+    return fail("pose_gate_growth_mps: must be >= 0");
+  }
+  if (!(pose_gate_rad >= 0 && std::isfinite(pose_gate_rad))) {
+    return fail("pose_gate_rad: must be >= 0 (0 = off)");
+  }
   for (size_t i = 0; i < sources.size(); ++i) {
     const Eigen::Vector3d t = sources[i].T_body_sensor.Translation();
     if (!t.allFinite() || !sources[i].T_body_sensor.Rotation().coeffs().allFinite()) {
@@ -162,6 +172,30 @@ void Estimator::Correct(const PoseMeasurement& pose, const CorrectionWeights& w,
   counters_.last_position_residual = r_p;
 }
 
+Status Estimator::Gate(const PoseMeasurement& pose, const EstimatorState& x) {
+  if (options_.pose_gate_m <= 0 && options_.pose_gate_rad <= 0) return Status::Ok();
+  const PoseSourceOptions& src = options_.sources[pose.source];
+  const Eigen::Vector3d r_p = pose.T_world_sensor.Translation() -
+                              (x.p_world + x.q_world_body * src.T_body_sensor.Translation());
+  const Eigen::Quaterniond q_meas =
+      pose.T_world_sensor.Rotation() * src.T_body_sensor.Rotation().conjugate();
+  const double r_t = LogSO3(q_meas * x.q_world_body.conjugate()).norm();
+  const double since_s =
+      std::max(0.0, NsToSeconds(pose.t_ns - std::max(counters_.last_accepted_t_ns, init_t_ns_)));
+  const double gate_m = options_.pose_gate_m + options_.pose_gate_growth_mps * since_s;
+  char why[160] = "";
+  if (options_.pose_gate_m > 0 && r_p.norm() > gate_m) {
+    std::snprintf(why, sizeof(why), "pose rejected: position residual %.3f m > gate %.3f m",
+                  r_p.norm(), gate_m);
+  } else if (options_.pose_gate_rad > 0 && r_t > options_.pose_gate_rad) {
+    std::snprintf(why, sizeof(why), "pose rejected: rotation residual %.3f rad > gate %.3f rad",
+                  r_t, options_.pose_gate_rad);
+  }
+  if (why[0] == '\0') return Status::Ok();
+  ++counters_.poses_rejected;
+  return Status::FailedPrecondition(why);
+}
+
 Status Estimator::FeedPose(const PoseMeasurement& pose) {
   if (pose.source < 0 || pose.source >= static_cast<int>(options_.sources.size())) {
     return Status::InvalidArgument("source: unknown pose source " + std::to_string(pose.source));
@@ -197,6 +231,7 @@ Status Estimator::FeedPose(const PoseMeasurement& pose) {
     ++updates_per_source_[pose.source];
     applied_size_ = 0;
   } else {
+    if (Status gate = Gate(pose, x); !gate.ok()) return gate;
     // Remember the pose (stamp order) with its weights, forgetting those older than the buffer.
     const int64_t oldest = At(0).imu.t_ns;
     int keep = 0;
@@ -216,6 +251,7 @@ Status Estimator::FeedPose(const PoseMeasurement& pose) {
     applied_[pos] = Applied{pose, NextWeights(pose.source)};
     ++applied_size_;
   }
+  counters_.last_accepted_t_ns = std::max(counters_.last_accepted_t_ns, pose.t_ns);
   // Re-apply the IMU after t_j, and every pose stamped from t_j on at its stamp (in stamp order):
   // the state stored at each sample holds the corrections stamped before it, so a late pose, or
   // one arriving out of stamp order, leaves the estimate a filter fed in stamp order would have.

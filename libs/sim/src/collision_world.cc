@@ -27,6 +27,23 @@ class PrimitiveCollisionWorld : public CollisionWorld {
   std::shared_ptr<const World> world_;
 };
 
+class AboveGroundCollisionWorld : public CollisionWorld {
+ public:
+  AboveGroundCollisionWorld(World world, size_t dropped)
+      : world_(std::move(world)), dropped_(dropped) {}
+  double Clearance(const Eigen::Vector3d& p, double max_range_m) const override {
+    return std::min(world_.SignedDistance(p), max_range_m);
+  }
+  std::string Describe() const override {
+    return "primitives (" + std::to_string(world_.primitives().size()) + ", " +
+           std::to_string(dropped_) + " ground primitives left to the ground plane)";
+  }
+
+ private:
+  World world_;
+  size_t dropped_;
+};
+
 class OctomapCollisionWorld : public CollisionWorld {
  public:
   OctomapCollisionWorld(std::unique_ptr<octomap::OcTree> tree, std::string name)
@@ -68,6 +85,21 @@ class OctomapCollisionWorld : public CollisionWorld {
 
 std::unique_ptr<CollisionWorld> MakePrimitiveCollisionWorld(std::shared_ptr<const World> world) {
   return std::make_unique<PrimitiveCollisionWorld>(std::move(world));
+}
+
+std::unique_ptr<CollisionWorld> MakePrimitiveCollisionWorldAboveGround(const World& world,
+                                                                       double ground_z_m) {
+  World above;
+  for (const Material& m : world.materials()) above.AddMaterial(m);
+  size_t dropped = 0;
+  for (const Primitive& p : world.primitives()) {
+    if (p.solid && p.Bounds().max().z() <= ground_z_m + 1e-9) {
+      ++dropped;
+      continue;
+    }
+    above.AddPrimitive(p);
+  }
+  return std::make_unique<AboveGroundCollisionWorld>(std::move(above), dropped);
 }
 
 Result<std::unique_ptr<CollisionWorld>> LoadOctomapCollisionWorld(const std::string& path) {

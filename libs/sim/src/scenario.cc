@@ -1,7 +1,6 @@
 #include "mav/sim/scenario.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <sstream>
 
@@ -11,7 +10,7 @@
 #include "mav/common/text.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/presets.h"
-#include "mav/sim/renderer.h"
+#include "mav/sim/stereo_rig.h"
 #include "mav/sim/trajectory.h"
 #include "mav/sim/world.h"
 #include "random.h"
@@ -68,7 +67,7 @@ struct Scenario::Impl {
   camera::StereoCalibration calibration;
   dataset::ImuNoise imu_noise;
   int64_t num_frames = 0;
-  std::array<std::unique_ptr<CameraRenderer>, 2> renderers;
+  std::unique_ptr<StereoRigRenderer> rig;
 
   double TrajTime(int64_t t_ns) const { return static_cast<double>(t_ns - kT0Ns) * 1e-9; }
 };
@@ -104,8 +103,8 @@ Result<Scenario> Scenario::Create(const ScenarioOptions& options) {
   }
   impl->trajectory = std::move(trajectory).value();
   impl->calibration = options.rectified ? RectifiedRig() : camera::EurocStereoCalibration();
-  impl->renderers[0] = std::make_unique<CameraRenderer>(impl->world, impl->calibration.cam0);
-  impl->renderers[1] = std::make_unique<CameraRenderer>(impl->world, impl->calibration.cam1);
+  impl->rig = std::make_unique<StereoRigRenderer>(impl->world, impl->calibration, preset.effects,
+                                                  options.seed, preset.min_clearance);
   impl->preset = std::move(preset);
   return Scenario(std::move(impl));
 }
@@ -120,63 +119,11 @@ int64_t Scenario::FrameTimeNs(int64_t frame) const { return kT0Ns + frame * kFra
 void Scenario::RenderStereo(int64_t frame, cv::Mat* left, cv::Mat* right) const {
   MAV_CHECK(frame >= 0 && frame < impl_->num_frames)
       << "frame " << frame << " outside [0, " << impl_->num_frames << ")";
-  MAV_CHECK(left != nullptr && right != nullptr);
   const Impl& s = *impl_;
-  const ImageEffects& fx = s.preset.effects;
-  const int64_t t_ns = FrameTimeNs(frame);
-  const double t_s = s.TrajTime(t_ns);
-  const double gain = fx.GainAt(t_s, s.options.seed);
-
-  const std::array<const geometry::SE3*, 2> T_body_cam = {&s.calibration.T_body_cam0,
-                                                          &s.calibration.T_body_cam1};
-  std::array<cv::Mat*, 2> out = {left, right};
-  std::vector<float> radiance, range, blurred;
-  auto form = [&](int c, const std::vector<float>& image) {
-    const uint64_t key = internal::HashCombine(
-        internal::HashCombine(s.options.seed, static_cast<uint64_t>(frame)), 0xca0ULL + c);
-    FormImage(image, s.renderers[c]->width(), s.renderers[c]->height(), gain, fx.noise_sigma, key,
-              out[c]);
-  };
-  const geometry::SE3 T_mid = s.trajectory.Evaluate(t_s).T_world_body;
-  if (fx.shutter_s <= 0) {
-    for (int c = 0; c < 2; ++c) {
-      s.renderers[c]->RenderRadiance(T_mid * *T_body_cam[c], &radiance);
-      form(c, radiance);
-    }
-    return;
-  }
-  const geometry::SE3 T_open = s.trajectory.Evaluate(t_s - fx.shutter_s / 2).T_world_body;
-  const geometry::SE3 T_close = s.trajectory.Evaluate(t_s + fx.shutter_s / 2).T_world_body;
-  if (!fx.exact_blur) {
-    for (int c = 0; c < 2; ++c) {
-      const geometry::SE3& T_bc = *T_body_cam[c];
-      s.renderers[c]->RenderRadiance(T_mid * T_bc, &radiance, &range);
-      s.renderers[c]->BlurByReprojection(radiance, range, T_mid * T_bc, T_open * T_bc,
-                                         T_close * T_bc, fx.reprojection_max_samples, &blurred);
-      form(c, blurred);
-    }
-    return;
-  }
-  // Exact: full sub-frame renders, their number adapted to the image motion over the shutter
-  // (rotation and translation at the closest plausible depth, the preset's clearance).
-  const double angle = geometry::AngleBetween(T_open.Rotation(), T_close.Rotation());
-  const double shift =
-      (T_close.Translation() - T_open.Translation()).norm() / std::max(s.preset.min_clearance, 0.3);
-  const double pixels = (angle + shift) * s.calibration.cam0.fx;
-  const int samples = std::clamp(static_cast<int>(std::ceil(pixels / fx.blur_pixels_per_sample)), 1,
-                                 std::max(1, fx.max_blur_samples));
-  std::vector<geometry::SE3> T_world_body;
-  for (int i = 0; i < samples; ++i) {
-    const double dt = samples == 1 ? 0.0 : ((i + 0.5) / samples - 0.5) * fx.shutter_s;
-    T_world_body.push_back(s.trajectory.Evaluate(t_s + dt).T_world_body);
-  }
-  for (int c = 0; c < 2; ++c) {
-    std::vector<geometry::SE3> poses;
-    poses.reserve(T_world_body.size());
-    for (const geometry::SE3& T : T_world_body) poses.push_back(T * *T_body_cam[c]);
-    s.renderers[c]->RenderIntegrated(poses, &radiance);
-    form(c, radiance);
-  }
+  const double t_s = s.TrajTime(FrameTimeNs(frame));
+  s.rig->Render(
+      frame, t_s, [&](double dt_s) { return s.trajectory.Evaluate(t_s + dt_s).T_world_body; }, left,
+      right);
 }
 
 dataset::GroundTruthState Scenario::StateAt(int64_t t_ns) const {

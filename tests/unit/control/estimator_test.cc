@@ -66,6 +66,57 @@ TEST(EstimatorTest, NoiseFreeHoverConvergesExactly) {
   EXPECT_LT(e.state().gyro_offset.norm(), 1e-6);
 }
 
+// The health gate: a pose far from the prediction is refused (and counted) and leaves the
+// estimate as a filter that never saw it; the gate opens with the time since the last accepted
+// pose.
+TEST(EstimatorTest, GateRejectsAJumpAndOpensWithTime) {
+  EstimatorOptions o = Options();
+  o.pose_gate_m = 0.3;
+  o.pose_gate_growth_mps = 0.3;
+  o.pose_gate_rad = 0.2;
+  Estimator gated = *Estimator::Create(o);
+  Estimator blind = *Estimator::Create(o);  // gets no pose after 5 s
+  const Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  const Eigen::Vector3d p(1, 2, 3);
+  int64_t t = 0;
+  // IMU of a vehicle at rest to end_ns; a pose at `measured` every kPoseNs (to `gated` only
+  // when `both` is false). Returns the last pose's status.
+  auto feed_until = [&](int64_t end_ns, const geometry::SE3& measured, bool both) {
+    Status last;
+    for (; t <= end_ns; t += kImuNs) {
+      const ImuMeasurement m{t, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, kGravity)};
+      gated.FeedImu(m);
+      blind.FeedImu(m);
+      if (t % kPoseNs != 0) continue;
+      last = gated.FeedPose(PoseMeasurement{t, 0, measured});
+      if (both) {
+        EXPECT_TRUE(blind.FeedPose(PoseMeasurement{t, 0, measured}).ok());
+      }
+    }
+    return last;
+  };
+  ASSERT_TRUE(feed_until(SecondsToNs(5), geometry::SE3(q, p), true).ok());
+  const uint64_t merged = gated.counters().poses_merged;
+  // 0.5 m off, 0.1 s after the last accepted pose: the gate is 0.33 m.
+  const geometry::SE3 jumped(q, p + Eigen::Vector3d(0.5, 0, 0));
+  const Status jump = feed_until(SecondsToNs(5.1), jumped, false);
+  EXPECT_EQ(jump.code(), StatusCode::kFailedPrecondition) << jump.ToString();
+  EXPECT_NE(jump.message().find("position residual"), std::string::npos) << jump.message();
+  EXPECT_EQ(gated.counters().poses_rejected, 1u);
+  EXPECT_EQ(gated.counters().poses_merged, merged);
+  EXPECT_LT((gated.state().p_world - blind.state().p_world).norm(), 1e-12)
+      << "a rejected pose moved the estimate";
+  // A rotation beyond 0.2 rad is refused too.
+  const geometry::SE3 turned(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ())),
+                             gated.state().p_world);
+  const Status rotation = feed_until(SecondsToNs(5.2), turned, false);
+  EXPECT_NE(rotation.message().find("rotation residual"), std::string::npos) << rotation.ToString();
+  EXPECT_EQ(gated.counters().poses_rejected, 2u);
+  // After ~0.7 s without an accepted pose the gate is 0.3 + 0.3 * 0.7 > 0.5 m: taken.
+  (void)feed_until(SecondsToNs(6.2), jumped, false);
+  EXPECT_GT(gated.counters().poses_merged, merged);
+}
+
 TEST(EstimatorTest, LearnsImuOffsets) {
   Estimator e = *Estimator::Create(Options());
   const Eigen::Vector3d ba(0.2, 0.1, -0.3), bg(-0.02, 0.008, -0.01);

@@ -162,6 +162,8 @@ class Autopilot {
   const Estimator& estimator() const { return estimator_; }
   const AutopilotOptions& options() const { return options_; }
   int64_t now_ns() const { return now_ns_; }
+  // When (on the IMU's clock) the estimator last accepted a pose; 0 before the first.
+  int64_t last_pose_arrival_ns() const { return last_pose_arrival_ns_; }
   // True while a trajectory or a Hover move is being flown (false once holding its end).
   bool moving() const { return has_trajectory_; }
 

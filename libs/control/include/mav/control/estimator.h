@@ -70,6 +70,15 @@ struct EstimatorOptions {
   bool couple_tilt = true;
   // Explicit weights for every source instead of the computed ones.
   std::optional<CorrectionWeights> weights_override;
+  // The health gate (0 = off, the default): a pose whose position differs from the estimate
+  // at its stamp (through the source's mounting) by more than
+  //   pose_gate_m + pose_gate_growth_mps * (time since the last accepted pose's stamp)
+  // or whose orientation differs by more than pose_gate_rad is rejected (FailedPrecondition,
+  // counted in poses_rejected): a localization that jumped must not pull the vehicle with it.
+  // The growth lets the gate open as the estimate drifts on the IMU alone.
+  double pose_gate_m = 0;
+  double pose_gate_growth_mps = 0.3;
+  double pose_gate_rad = 0;
   // The estimate counts as converged this long after the first pose (the transient gains
   // have then learnt the offsets to a few percent).
   double converge_s = 4.0;
@@ -94,8 +103,10 @@ struct EstimatorState {
 struct EstimatorCounters {
   uint64_t imu_samples = 0;
   uint64_t poses_merged = 0;
-  uint64_t poses_dropped = 0;  // older than the buffer, or before any IMU
-  int64_t last_pose_t_ns = 0;  // stamp of the last merged pose
+  uint64_t poses_dropped = 0;      // older than the buffer, or before any IMU
+  uint64_t poses_rejected = 0;     // by the gate (EstimatorOptions::pose_gate_m)
+  int64_t last_accepted_t_ns = 0;  // stamp of the newest accepted pose
+  int64_t last_pose_t_ns = 0;      // stamp of the last merged pose
   Eigen::Vector3d last_position_residual = Eigen::Vector3d::Zero();
 };
 
@@ -108,7 +119,8 @@ class Estimator {
   // dropped poses would be: see counters()).
   void FeedImu(const ImuMeasurement& imu);
   // A pose, in arrival order (its stamp may be up to buffer_s old). InvalidArgument for an
-  // unknown source; OutOfRange (pose dropped) when older than the buffer or no IMU has arrived.
+  // unknown source; OutOfRange (pose dropped) when older than the buffer or no IMU has arrived;
+  // FailedPrecondition when the gate rejects it (see EstimatorOptions::pose_gate_m).
   Status FeedPose(const PoseMeasurement& pose);
 
   bool initialized() const { return initialized_; }
@@ -133,6 +145,7 @@ class Estimator {
     CorrectionWeights weights;
   };
   CorrectionWeights NextWeights(int source);
+  Status Gate(const PoseMeasurement& pose, const EstimatorState& x);
   void Correct(const PoseMeasurement& pose, const CorrectionWeights& w, EstimatorState* x);
   Entry& At(int k) { return ring_[(head_ + k) % ring_.size()]; }
 

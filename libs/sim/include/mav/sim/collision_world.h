@@ -27,6 +27,11 @@ class CollisionWorld {
 
 // The analytic primitives of `world` (kept alive by the pointer).
 std::unique_ptr<CollisionWorld> MakePrimitiveCollisionWorld(std::shared_ptr<const World> world);
+// The same without the primitives that lie entirely at or below `ground_z_m` (a room's floor
+// slab, a plant's ground): a FlightSimulation models that ground as its ground plane, where a
+// touchdown slower than its landing speed is a landing, not a collision.
+std::unique_ptr<CollisionWorld> MakePrimitiveCollisionWorldAboveGround(const World& world,
+                                                                       double ground_z_m);
 
 // The occupied leaves of an OctoMap binary file (.bt). NotFound / DataLoss naming the file.
 // Clearance is the exact distance to the nearest occupied voxel box, found by searching boxes

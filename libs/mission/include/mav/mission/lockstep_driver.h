@@ -1,0 +1,168 @@
+#pragma once
+// The in-process MissionDriver (driver.h): the whole loop in one thread, lock-stepped and
+// deterministic for a seed (mav-eval mission, tests and seed sweeps).
+//
+//   FlightSimulation (vehicle, IMU at imu_rate_hz, collisions with the preset's exact world)
+//     -> StereoRigRenderer: the stereo pair at camera_rate_hz from the flown state, with the
+//        preset's exposure, blur and noise (vision in the loop)
+//     -> RigOdometry (sparse VO by default), started at the true initial pose
+//     -> the Autopilot's estimator (pose source vo | contest | truth), the controller
+//     -> rotor speeds -> FlightSimulation
+//   Plan() runs libs/planning (PRM* roadmap + PlanPath) on the map (see MapSource).
+//
+// Time: the vehicle's clock starts at 0. Frame k is captured at k / camera_rate_hz, rendered
+// as soon as the state over its shutter is known, and its VO pose reaches the estimator
+// vo_latency_s after the capture (a fixed modelled latency keeps runs deterministic; the wall
+// time the VO took is measured and reported beside it).
+//
+// The camera rig: the preset's EuRoC rig (body = the VI sensor's IMU frame, x up, z forward)
+// mounted on the vehicle (body x forward, z up) looking forward, T_vehicle_rig.
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "mav/common/stats.h"
+#include "mav/common/status.h"
+#include "mav/common/termination.h"
+#include "mav/control/autopilot.h"
+#include "mav/dataset/mission_file.h"
+#include "mav/geometry/se3.h"
+#include "mav/localization/odometry.h"
+#include "mav/mission/driver.h"
+#include "mav/planning/trajectory.h"
+
+namespace mav::sim {
+class FlightSimulation;
+class World;
+}  // namespace mav::sim
+namespace mav::planning {
+class PlanningMap;
+}
+
+namespace mav::mission {
+
+enum class PoseSource {
+  kContest,  // the EuRoC 2014 contest's synthetic pose sensor (10 Hz, 100 ms late, noisy)
+  kVo,       // stereo VO on the rendered images
+  kTruth,    // the exact pose at camera rate, no delay (debugging only)
+};
+const char* PoseSourceName(PoseSource source);  // "contest", "vo", "truth"
+std::optional<PoseSource> ParsePoseSource(std::string_view name);
+
+// The localization is down over [start_s, start_s + duration_s) of the vehicle's clock (its
+// frames are not processed). With `restart` it comes back as a restarted process would: without
+// a reference, until the mission seeds it (MissionDriver::SeedLocalization).
+struct LocalizationOutage {
+  double start_s = 0;
+  double duration_s = 0;
+  bool restart = true;
+};
+
+// Where Plan() gets its obstacles.
+enum class MapSource {
+  kGroundTruth,  // the preset world's exact occupancy at map_resolution_m
+};
+
+struct LockstepOptions {
+  uint64_t seed = 1;
+  PoseSource pose_source = PoseSource::kVo;
+  localization::Method vo_method = localization::Method::kSparseSubpixel;
+  double vo_latency_s = 0.05;
+  // The estimator's model of the VO pose noise.
+  double vo_position_sigma_m = 0.01;
+  double vo_orientation_sigma_rad = 0.005;
+  double imu_rate_hz = 200;
+  double camera_rate_hz = 20;
+  control::ControllerType controller = control::ControllerType::kPaper;
+  // The estimator's gate (EstimatorOptions::pose_gate_*) on every source.
+  double pose_gate_m = 0.3;
+  double pose_gate_rad = 0.2;
+  // Planning. 0 = the world's default (rooms / plant): map resolution 0.05 / 0.25 m, robot
+  // radius 0.4 / 0.8 m, roadmap 20 000 / 60 000 milestones.
+  MapSource map_source = MapSource::kGroundTruth;
+  double map_resolution_m = 0;
+  double robot_radius_m = 0;
+  uint64_t roadmap_milestones = 0;
+  // Unset: the world's default (rooms: 1 m/s, 1 m/s^2; plant: 3 m/s, 2 m/s^2).
+  std::optional<planning::SpeedLimits> limits;
+  std::vector<LocalizationOutage> outages;
+  double record_rate_hz = 20;
+  bool IsValid(std::string* why) const;
+};
+
+// One sample of the flight record (at record_rate_hz).
+struct FlightSample {
+  double t_s = 0;
+  Eigen::Vector3d p_true = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_true = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d v_true = Eigen::Vector3d::Zero();
+  Eigen::Vector3d p_est = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_est = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d omega_true = Eigen::Vector3d::Zero();
+  bool armed = false;
+};
+
+struct LockstepStats {
+  uint64_t frames = 0;          // stereo pairs rendered
+  uint64_t vo_tracked = 0;      // VO frames with a pose (OK, degraded or initialising)
+  uint64_t vo_lost = 0;         // VO frames lost
+  uint64_t vo_skipped = 0;      // frames while the localization was down or unseeded
+  uint64_t poses_fed = 0;       // poses given to the estimator
+  uint64_t poses_rejected = 0;  // by its gate
+  uint64_t plans = 0;
+  uint64_t plans_failed = 0;
+  RuntimeStats render_ms;  // wall time per stereo pair
+  RuntimeStats vo_ms;      // wall time per VO frame
+  RuntimeStats plan_ms;    // wall time per Plan()
+  double path_m = 0;       // ground-truth path length flown
+  double setup_s = 0;      // map + roadmap (wall)
+  int64_t collisions = 0;
+  std::vector<std::string> collision_descriptions;
+  std::string map_description;
+};
+
+class LockstepDriver final : public MissionDriver {
+ public:
+  // Builds the world of mission.world, the vehicle at mission.start, the renderer, the VO and
+  // the planning map and roadmap. InvalidArgument naming the field (options, an unknown
+  // world); progress lines go to `progress` (may be null).
+  static Result<std::unique_ptr<LockstepDriver>> Create(const dataset::MissionSpec& mission,
+                                                        const LockstepOptions& options,
+                                                        const ProgressCallback& progress = {});
+  ~LockstepDriver() override;
+
+  Result<VehicleView> Advance(double dt_s) override;
+  Status Arm() override;
+  Status Disarm() override;
+  Status GoTo(const Eigen::Vector3d& position, double yaw_rad,
+              const control::GoToLimits& limits) override;
+  Status Hold(const Eigen::Vector3d& position, double yaw_rad) override;
+  Status Follow(const geometry::PolynomialTrajectory& trajectory) override;
+  Result<LegPlan> Plan(const Eigen::Vector3d& start, const Eigen::Vector3d& goal,
+                       double yaw_rad) override;
+  Status CheckPoint(const Eigen::Vector3d& p) override;
+  Result<Eigen::Vector3d> LandingSpot(const Eigen::Vector3d& above) override;
+  Status SeedLocalization(const geometry::SE3& T_world_body) override;
+
+  const std::vector<FlightSample>& record() const;
+  LockstepStats stats() const;
+  const control::Autopilot& autopilot() const;
+  const sim::World& world() const;
+  const planning::PlanningMap& planning_map() const;
+  // The vehicle's camera mounting (the rig's body frame in the vehicle's body frame).
+  static geometry::SE3 VehicleRigMount();
+
+ private:
+  struct Impl;
+  explicit LockstepDriver(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mav::mission

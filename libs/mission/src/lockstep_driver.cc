@@ -80,6 +80,17 @@ bool LockstepOptions::IsValid(std::string* why) const {
   return false;
 }
 
+double EstimateRmsError(const std::vector<FlightSample>& record) {
+  double sum = 0;
+  size_t n = 0;
+  for (const FlightSample& s : record) {
+    if (!s.armed) continue;
+    sum += (s.p_est - s.p_true).squaredNorm();
+    ++n;
+  }
+  return n ? std::sqrt(sum / static_cast<double>(n)) : std::nan("");
+}
+
 geometry::SE3 LockstepDriver::VehicleRigMount() {
   // Rig body axes in the vehicle's: x (up) = vehicle z, z (forward) = vehicle x, y = -vehicle y.
   Eigen::Matrix3d R;
@@ -108,70 +119,10 @@ struct PendingPose {
   control::PoseMeasurement pose;
 };
 
-}  // namespace
-
-struct LockstepDriver::Impl {
-  dataset::MissionSpec mission;
-  LockstepOptions options;
-  sim::Preset preset;
-  std::shared_ptr<const sim::World> world;
-  std::unique_ptr<sim::FlightSimulation> sim;
-  std::unique_ptr<control::Autopilot> ap;
-  std::unique_ptr<sim::StereoRigRenderer> rig;
-  std::unique_ptr<localization::RigOdometry> vo;
-  geometry::SE3 T_vehicle_rig;
-  Eigen::Matrix3d R_rig_vehicle;
-  std::shared_ptr<const planning::PlanningMap> map;
-  std::shared_ptr<const planning::Roadmap> roadmap;
-  planning::SpeedLimits limits;
-  double ground_z = 0;
-
-  const sim::FlightStep* out = nullptr;
-  std::deque<TruthAt> truth;  // the last ~0.2 s, for the shutter's poses
-  std::deque<PendingPose> pending;
-  int64_t frame_period_ns = 0;
-  int64_t next_frame = 0;  // index of the next frame to capture
-  bool vo_down = false;
-  bool vo_restarts = false;  // the current outage ends with a restarted localization
-  bool vo_needs_seed = false;
-  std::string vo_state = "starting";
-  int64_t next_record_ns = 0;
-  int64_t record_period_ns = 0;
-  std::vector<FlightSample> record;
-  Eigen::Vector3d last_p = Eigen::Vector3d::Zero();
-  LockstepStats stats;
-  RuntimeWindow render_ms{100000}, vo_ms{100000}, plan_ms{10000};
-
-  void StepOnce();
-  void Capture(int64_t frame);
-  bool InOutage(int64_t t_ns, bool* restart) const;
-  geometry::SE3 TruthBetween(int64_t t_ns) const;
-};
-
-LockstepDriver::LockstepDriver(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
-LockstepDriver::~LockstepDriver() = default;
-
-Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::MissionSpec& mission,
-                                                               const LockstepOptions& options,
-                                                               const ProgressCallback& progress) {
-  const auto setup_start = Clock::now();
-  std::string why;
-  if (!options.IsValid(&why)) return Status::InvalidArgument(why);
-  if (!mission.IsValid(&why)) return Status::InvalidArgument(mission.source + ": " + why);
-  auto impl = std::make_unique<Impl>();
-  Impl& s = *impl;
-  s.mission = mission;
-  s.options = options;
-  Result<sim::Preset> preset = sim::MakePreset(mission.world);
-  if (!preset.ok()) {
-    return Status::InvalidArgument(mission.source + ": world: " + preset.status().message());
-  }
-  s.preset = *std::move(preset);
-  s.preset.world->BuildTextures(options.seed);
-  s.world = s.preset.world;
-  const bool room = IsRoom(mission.world);
-
-  // The vehicle and its sensors.
+// The vehicle, its IMU and (for `contest` / `truth`) its pose sensor for a mission; a `vo`
+// mission's sensor never delivers (the VO is the pose source).
+dataset::FlightTask MissionFlightTask(const dataset::MissionSpec& mission,
+                                      const LockstepOptions& options) {
   dataset::FlightTask task;
   task.name = "mission " + mission.source;
   task.kind = dataset::FlightTaskKind::kWaypoints;
@@ -194,24 +145,20 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
     sensor.active_from_s = task.duration_s - 1;  // never within a mission
   }
   task.pose_sensors = {sensor};
-  MAV_ASSIGN_OR_RETURN(
-      sim::FlightSimulation flight,
-      sim::FlightSimulation::Create(
-          task, options.seed, {},
-          std::shared_ptr<const sim::CollisionWorld>(
-              sim::MakePrimitiveCollisionWorldAboveGround(*s.world, mission.start.z()))));
-  s.sim = std::make_unique<sim::FlightSimulation>(std::move(flight));
-  s.out = &s.sim->Initial();
+  return task;
+}
 
+// The flight software for the task, its estimator fed by the mission's pose source.
+control::AutopilotOptions MissionAutopilotOptions(const dataset::FlightTask& task,
+                                                  const LockstepOptions& options,
+                                                  const geometry::SE3& T_vehicle_rig) {
   control::AutopilotOptions ap = eval::AutopilotOptionsForTask(task, options.controller);
-  s.T_vehicle_rig = VehicleRigMount();
-  s.R_rig_vehicle = s.T_vehicle_rig.Rotation().toRotationMatrix().transpose();
   if (options.pose_source == PoseSource::kVo) {
     control::PoseSourceOptions vo;
     vo.rate_hz = options.camera_rate_hz;
     vo.position_sigma_m = options.vo_position_sigma_m;
     vo.orientation_sigma_rad = options.vo_orientation_sigma_rad;
-    vo.T_body_sensor = s.T_vehicle_rig;
+    vo.T_body_sensor = T_vehicle_rig;
     ap.estimator.sources = {vo};
     ap.estimator.buffer_s = std::max(1.0, 2 * options.vo_latency_s + 0.2);
   }
@@ -221,7 +168,128 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
   // the autopilot's own failsafe (a level descent where it is) is the last resort behind it,
   // for a mission that stopped commanding.
   ap.pose_timeout_s = 20.0;
-  MAV_ASSIGN_OR_RETURN(control::Autopilot autopilot, control::Autopilot::Create(ap));
+  return ap;
+}
+
+planning::SpeedLimits WorldSpeedLimits(bool room) {
+  planning::SpeedLimits limits;
+  limits.max_speed_mps = room ? 1.0 : 3.0;
+  limits.max_acceleration_mps2 = room ? 1.0 : 2.0;
+  limits.max_lateral_acceleration_mps2 = room ? 1.0 : 2.0;
+  limits.max_jerk_mps3 = room ? 3.0 : 5.0;
+  return limits;
+}
+
+}  // namespace
+
+struct LockstepDriver::Impl {
+  dataset::MissionSpec mission;
+  LockstepOptions options;
+  sim::Preset preset;
+  std::shared_ptr<const sim::World> world;
+  std::unique_ptr<sim::FlightSimulation> sim;
+  std::unique_ptr<control::Autopilot> ap;
+  std::unique_ptr<sim::StereoRigRenderer> rig;
+  std::unique_ptr<localization::RigOdometry> vo;
+  geometry::SE3 T_vehicle_rig;
+  Eigen::Matrix3d R_rig_vehicle;
+  std::shared_ptr<const planning::PlanningMap> map;
+  std::shared_ptr<const planning::Roadmap> roadmap;
+  planning::SpeedLimits limits;
+
+  const sim::FlightStep* out = nullptr;
+  std::deque<TruthAt> truth;  // the last ~0.2 s, for the shutter's poses
+  std::deque<PendingPose> pending;
+  int64_t frame_period_ns = 0;
+  int64_t next_frame = 0;  // index of the next frame to capture
+  bool vo_down = false;
+  bool vo_restarts = false;  // the current outage ends with a restarted localization
+  bool vo_needs_seed = false;
+  std::string vo_state = "starting";
+  int64_t next_record_ns = 0;
+  int64_t record_period_ns = 0;
+  std::vector<FlightSample> record;
+  Eigen::Vector3d last_p = Eigen::Vector3d::Zero();
+  LockstepStats stats;
+  RuntimeWindow render_ms{100000}, vo_ms{100000}, plan_ms{10000};
+
+  // The planning map (the world's exact occupancy), its roadmap and the speed limits.
+  Status BuildPlanning(const ProgressCallback& progress);
+  void StepOnce();
+  void Capture(int64_t frame);
+  bool InOutage(int64_t t_ns, bool* restart) const;
+  geometry::SE3 TruthBetween(int64_t t_ns) const;
+};
+
+LockstepDriver::LockstepDriver(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+LockstepDriver::~LockstepDriver() = default;
+
+Status LockstepDriver::Impl::BuildPlanning(const ProgressCallback& progress) {
+  const bool room = IsRoom(mission.world);
+  const double resolution =
+      options.map_resolution_m > 0 ? options.map_resolution_m : (room ? 0.05 : 0.25);
+  if (progress) progress("ground-truth map", 0.0);
+  const dataset::OccupancyGrid grid = sim::ComputeOccupancy(*world, resolution);
+  MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(grid));
+  planning::MapOptions map_options;
+  map_options.robot_radius_m =
+      options.robot_radius_m > 0 ? options.robot_radius_m : (room ? 0.4 : 0.8);
+  // The preset's flight volume down to the ground (landings descend through it).
+  Eigen::Vector3d volume_min = preset.flight_bounds.min();
+  volume_min.z() = std::min(volume_min.z(), mission.start.z());
+  map_options.planning_bounds = planning::Box{volume_min, preset.flight_bounds.max()};
+  MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(bt, mission.world + " ground truth",
+                                                             map_options, {}, progress));
+  planning::RoadmapOptions roadmap_options;
+  roadmap_options.max_milestones =
+      options.roadmap_milestones > 0 ? options.roadmap_milestones : (room ? 20'000 : 60'000);
+  roadmap_options.seed = options.seed;
+  roadmap_options.validity_resolution_m = std::min(resolution, 0.05);
+  MAV_ASSIGN_OR_RETURN(roadmap, planning::Roadmap::Build(*map, roadmap_options, {}, progress));
+  limits = options.limits.value_or(WorldSpeedLimits(room));
+  std::ostringstream description;
+  description << "ground-truth occupancy of " << mission.world << " at " << resolution
+              << " m, robot radius " << map_options.robot_radius_m << " m, "
+              << roadmap->info().milestones << " roadmap milestones";
+  stats.map_description = description.str();
+  return Status::Ok();
+}
+
+Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::MissionSpec& mission,
+                                                               const LockstepOptions& options,
+                                                               const ProgressCallback& progress) {
+  const auto setup_start = Clock::now();
+  std::string why;
+  if (!options.IsValid(&why)) return Status::InvalidArgument(why);
+  if (!mission.IsValid(&why)) return Status::InvalidArgument(mission.source + ": " + why);
+  auto impl = std::make_unique<Impl>();
+  Impl& s = *impl;
+  s.mission = mission;
+  s.options = options;
+  Result<sim::Preset> preset = sim::MakePreset(mission.world);
+  if (!preset.ok()) {
+    return Status::InvalidArgument(mission.source + ": world: " + preset.status().message());
+  }
+  s.preset = *std::move(preset);
+  s.preset.world->BuildTextures(options.seed);
+  s.world = s.preset.world;
+
+  // The vehicle and its flight software.
+  const dataset::FlightTask task = MissionFlightTask(mission, options);
+  MAV_ASSIGN_OR_RETURN(
+      sim::FlightSimulation flight,
+      sim::FlightSimulation::Create(
+          task, options.seed, {},
+          std::shared_ptr<const sim::CollisionWorld>(
+              sim::MakePrimitiveCollisionWorldAboveGround(*s.world, mission.start.z()))));
+  s.sim = std::make_unique<sim::FlightSimulation>(std::move(flight));
+  s.out = &s.sim->Initial();
+  s.last_p = s.out->truth.p_world;
+  s.T_vehicle_rig = VehicleRigMount();
+  s.R_rig_vehicle = s.T_vehicle_rig.Rotation().toRotationMatrix().transpose();
+  MAV_ASSIGN_OR_RETURN(
+      control::Autopilot autopilot,
+      control::Autopilot::Create(MissionAutopilotOptions(task, options, s.T_vehicle_rig)));
   s.ap = std::make_unique<control::Autopilot>(std::move(autopilot));
 
   // Vision in the loop.
@@ -239,48 +307,8 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
   s.frame_period_ns = PeriodNs(options.camera_rate_hz);
   s.record_period_ns = PeriodNs(options.record_rate_hz);
 
-  // The planning map and its roadmap.
-  const double resolution =
-      options.map_resolution_m > 0 ? options.map_resolution_m : (room ? 0.05 : 0.25);
-  if (progress) progress("ground-truth map", 0.0);
-  const dataset::OccupancyGrid grid = sim::ComputeOccupancy(*s.world, resolution);
-  MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(grid));
-  planning::MapOptions map_options;
-  map_options.robot_radius_m =
-      options.robot_radius_m > 0 ? options.robot_radius_m : (room ? 0.4 : 0.8);
-  // The preset's flight volume down to the ground (landings descend through it).
-  Eigen::Vector3d volume_min = s.preset.flight_bounds.min();
-  volume_min.z() = std::min(volume_min.z(), mission.start.z());
-  map_options.planning_bounds = planning::Box{volume_min, s.preset.flight_bounds.max()};
-  s.ground_z = mission.start.z();
-  MAV_ASSIGN_OR_RETURN(s.map, planning::PlanningMap::LoadBytes(bt, mission.world + " ground truth",
-                                                               map_options, {}, progress));
-  planning::RoadmapOptions roadmap;
-  roadmap.max_milestones =
-      options.roadmap_milestones > 0 ? options.roadmap_milestones : (room ? 20'000 : 60'000);
-  roadmap.seed = options.seed;
-  roadmap.validity_resolution_m = std::min(resolution, 0.05);
-  MAV_ASSIGN_OR_RETURN(s.roadmap, planning::Roadmap::Build(*s.map, roadmap, {}, progress));
-  if (options.limits) {
-    s.limits = *options.limits;
-  } else if (room) {
-    s.limits.max_speed_mps = 1.0;
-    s.limits.max_acceleration_mps2 = 1.0;
-    s.limits.max_lateral_acceleration_mps2 = 1.0;
-    s.limits.max_jerk_mps3 = 3.0;
-  } else {
-    s.limits.max_speed_mps = 3.0;
-    s.limits.max_acceleration_mps2 = 2.0;
-    s.limits.max_lateral_acceleration_mps2 = 2.0;
-    s.limits.max_jerk_mps3 = 5.0;
-  }
-  std::ostringstream map_description;
-  map_description << "ground-truth occupancy of " << mission.world << " at " << resolution
-                  << " m, robot radius " << map_options.robot_radius_m << " m, "
-                  << s.roadmap->info().milestones << " roadmap milestones";
-  s.stats.map_description = map_description.str();
+  MAV_RETURN_IF_ERROR(s.BuildPlanning(progress));
   s.stats.setup_s = MsSince(setup_start) / 1000.0;
-  s.last_p = s.out->truth.p_world;
   return std::unique_ptr<LockstepDriver>(new LockstepDriver(std::move(impl)));
 }
 
@@ -341,11 +369,10 @@ void LockstepDriver::Impl::Capture(int64_t frame) {
   }
   cv::Mat left, right;
   const auto render_start = Clock::now();
-  const geometry::SE3& T_vehicle_rig_ref = T_vehicle_rig;
   rig->Render(
       frame, NsToSeconds(t_ns),
-      [&](double dt_s) { return TruthBetween(t_ns + SecondsToNs(dt_s)) * T_vehicle_rig_ref; },
-      &left, &right);
+      [&](double dt_s) { return TruthBetween(t_ns + SecondsToNs(dt_s)) * T_vehicle_rig; }, &left,
+      &right);
   render_ms.Add(MsSince(render_start));
   ++stats.frames;
   const auto vo_start = Clock::now();
@@ -392,9 +419,7 @@ void LockstepDriver::Impl::StepOnce() {
     r.armed = ap->armed();
     record.push_back(r);
   }
-  sim::RotorVector cmd(command.size());
-  for (int i = 0; i < command.size(); ++i) cmd[i] = command[i];
-  out = &sim->Step(cmd);
+  out = &sim->Step(command);  // control:: and sim::RotorVector are one Eigen type
   stats.path_m += (out->truth.p_world - last_p).norm();
   last_p = out->truth.p_world;
   truth.push_back({out->t_ns, geometry::SE3(out->truth.q_world_body, out->truth.p_world)});
@@ -514,7 +539,7 @@ Result<Eigen::Vector3d> LockstepDriver::LandingSpot(const Eigen::Vector3d& above
   const planning::PlanningMap& map = *impl_->map;
   // The robot radius plus room for the estimate's drift on the IMU alone.
   const double radius = map.robot_radius() + 0.1;
-  const double lowest = impl_->ground_z + radius + 0.05;
+  const double lowest = impl_->mission.start.z() + radius + 0.05;
   auto column_free = [&](const Eigen::Vector3d& top) {
     for (double z = top.z(); z > lowest; z -= 0.05) {
       if (!map.HasClearance({top.x(), top.y(), z}, radius)) return false;

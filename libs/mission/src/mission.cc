@@ -111,17 +111,15 @@ class Runner {
   }
 
   MissionReport Run(const MissionProgressCallback& progress) {
-    // Every goal must be a place the vehicle may be, before it takes off.
-    for (size_t i = 0; i < m_.goals.size(); ++i) {
-      if (Status s = d_.CheckPoint(m_.goals[i].position); !s.ok()) {
-        r_.error = GoalName(static_cast<int>(i)) + ": " + s.message() + " (no take-off)";
-        r_.outcome = MissionOutcome::kAborted;
-        Event("refused: " + r_.error);
-        return std::move(r_);
-      }
-    }
-    if (Status s = d_.CheckPoint(m_.start + Eigen::Vector3d(0, 0, m_.altitude_m)); !s.ok()) {
-      r_.error = "the take-off point (start + altitude): " + s.message() + " (no take-off)";
+    // Every goal and the take-off point must be places the vehicle may be, before it flies.
+    for (size_t i = 0; i <= m_.goals.size(); ++i) {
+      const bool takeoff = i == m_.goals.size();
+      const Status s = d_.CheckPoint(takeoff ? m_.start + Eigen::Vector3d(0, 0, m_.altitude_m)
+                                             : m_.goals[i].position);
+      if (s.ok()) continue;
+      r_.error = (takeoff ? std::string("the take-off point (start + altitude)")
+                          : GoalName(static_cast<int>(i))) +
+                 ": " + s.message() + " (no take-off)";
       r_.outcome = MissionOutcome::kAborted;
       Event("refused: " + r_.error);
       return std::move(r_);

@@ -53,17 +53,6 @@ Flown Fly(const dataset::MissionSpec& mission, const LockstepOptions& options) {
   return {*std::move(report), (*driver)->record(), (*driver)->stats()};
 }
 
-double Ate(const std::vector<FlightSample>& record) {
-  double sum = 0;
-  size_t n = 0;
-  for (const FlightSample& s : record) {
-    if (!s.armed) continue;
-    sum += (s.p_est - s.p_true).squaredNorm();
-    ++n;
-  }
-  return n ? std::sqrt(sum / n) : INFINITY;
-}
-
 bool HasEvent(const MissionReport& r, const std::string& text) {
   return std::any_of(r.events.begin(), r.events.end(),
                      [&](const MissionEvent& e) { return e.what.find(text) != std::string::npos; });
@@ -85,7 +74,7 @@ TEST(LockstepMissionTest, FliesARoomMissionOnItsOwnEyesAndRepeatsItExactly) {
   ASSERT_EQ(a.report.goals.size(), 1u);
   EXPECT_TRUE(a.report.goals[0].reached);
   EXPECT_LE(a.report.goals[0].error_m, 0.15);
-  EXPECT_LE(Ate(a.record), 0.05) << "ATE of the VO-fused estimate";
+  EXPECT_LE(EstimateRmsError(a.record), 0.05) << "ATE of the VO-fused estimate";
   EXPECT_GT(a.stats.frames, 200u) << "the VO tracked the flight's own images";
   EXPECT_EQ(a.stats.vo_lost, 0u);
   EXPECT_GE(a.report.plans, 1);

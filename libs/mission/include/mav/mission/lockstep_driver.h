@@ -109,6 +109,10 @@ struct FlightSample {
   bool armed = false;
 };
 
+// The mission's ATE: RMS of |estimate - ground truth| over the samples while armed, without
+// alignment; NaN when none was armed.
+double EstimateRmsError(const std::vector<FlightSample>& record);
+
 struct LockstepStats {
   uint64_t frames = 0;          // stereo pairs rendered
   uint64_t vo_tracked = 0;      // VO frames with a pose (OK, degraded or initialising)

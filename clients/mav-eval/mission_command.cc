@@ -89,7 +89,7 @@ struct Flags {
   std::string mission_path, out_dir, json_path, pose_source = "vo";
   std::string vo_method = "sparse-subpixel", controller = "paper", outage, world;
   uint64_t seed = 1;
-  double vo_latency_s = 0.05, max_speed = 0;
+  double vo_latency_s = 0.05, max_speed = 0, timeout_s = 900, camera_pitch_deg = 0;
   bool quiet = false;
 };
 
@@ -98,6 +98,7 @@ Result<mission::LockstepOptions> DriverOptions(const Flags& f) {
   mission::LockstepOptions options;
   options.seed = f.seed;
   options.vo_latency_s = f.vo_latency_s;
+  options.camera_pitch_rad = f.camera_pitch_deg * M_PI / 180;
   const std::optional<mission::PoseSource> source = mission::ParsePoseSource(f.pose_source);
   if (!source) {
     return Status::InvalidArgument("--pose-source: " + QuoteForError(f.pose_source) +
@@ -261,11 +262,16 @@ int RunMission(const std::vector<std::string>& args) {
   flags.AddString("controller", &f.controller, "paper or lee");
   flags.AddDouble("vo-latency", &f.vo_latency_s, "modelled VO latency, s (capture to estimator)", 0,
                   0.5);
+  flags.AddDouble("camera-pitch", &f.camera_pitch_deg,
+                  "the stereo camera's downward pitch on the vehicle, degrees", 0, 60);
   flags.AddDouble("max-speed", &f.max_speed, "planned speed limit, m/s (0 = the world's default)",
                   0, 20);
   flags.AddString("localization-outage", &f.outage,
                   "START,DURATION: the localization is down for DURATION s from START s and comes "
                   "back restarted (fault injection)");
+  flags.AddDouble("timeout", &f.timeout_s,
+                  "abort the mission after this long in simulated time, s (outcome aborted)", 1,
+                  7000);
   flags.AddString("out", &f.out_dir, "write trajectory.csv and mission.png here");
   flags.AddString("json", &f.json_path, "write the report here");
   flags.AddBool("quiet", &f.quiet, "no progress line");
@@ -287,6 +293,7 @@ int RunMission(const std::vector<std::string>& args) {
   r.spec = *std::move(spec);
   if (!f.world.empty()) r.spec.world = f.world;
   mission::MissionOptions mission_options;
+  mission_options.timeout_s = f.timeout_s;
   if (r.spec.world == "plant") mission_options.goal_tolerance_m = 0.5;
 
   const auto wall_start = std::chrono::steady_clock::now();

@@ -57,6 +57,8 @@ bool LockstepOptions::IsValid(std::string* why) const {
   check(imu_rate_hz >= 50 && imu_rate_hz <= 1000, "imu_rate_hz: must be in [50, 1000]");
   check(camera_rate_hz > 0 && camera_rate_hz <= imu_rate_hz,
         "camera_rate_hz: must be in (0, imu_rate_hz]");
+  check(camera_pitch_rad >= 0 && camera_pitch_rad <= 1.2,
+        "camera_pitch_rad: must be in [0, 1.2] (0 = level, looking forward)");
   check(pose_gate_m >= 0 && pose_gate_rad >= 0, "pose_gate_m / pose_gate_rad: must be >= 0");
   check(map_resolution_m == 0 || (map_resolution_m >= 0.02 && map_resolution_m <= 1),
         "map_resolution_m: must be 0 (the world's default) or in [0.02, 1]");
@@ -91,13 +93,15 @@ double EstimateRmsError(const std::vector<FlightSample>& record) {
   return n ? std::sqrt(sum / static_cast<double>(n)) : std::nan("");
 }
 
-geometry::SE3 LockstepDriver::VehicleRigMount() {
-  // Rig body axes in the vehicle's: x (up) = vehicle z, z (forward) = vehicle x, y = -vehicle y.
+geometry::SE3 LockstepDriver::VehicleRigMount(double pitch_down_rad) {
+  // Rig body axes in the vehicle's: x (up) = vehicle z, z (forward) = vehicle x, y = -vehicle y;
+  // then pitched down about the vehicle's y axis.
   Eigen::Matrix3d R;
   R.col(0) = Eigen::Vector3d::UnitZ();
   R.col(1) = -Eigen::Vector3d::UnitY();
   R.col(2) = Eigen::Vector3d::UnitX();
-  return geometry::SE3(Eigen::Quaterniond(R), Eigen::Vector3d(0.12, 0.0, 0.02));
+  const Eigen::Matrix3d pitch(Eigen::AngleAxisd(pitch_down_rad, Eigen::Vector3d::UnitY()));
+  return geometry::SE3(Eigen::Quaterniond(pitch * R), Eigen::Vector3d(0.12, 0.0, 0.02));
 }
 
 namespace {
@@ -285,7 +289,7 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
   s.sim = std::make_unique<sim::FlightSimulation>(std::move(flight));
   s.out = &s.sim->Initial();
   s.last_p = s.out->truth.p_world;
-  s.T_vehicle_rig = VehicleRigMount();
+  s.T_vehicle_rig = VehicleRigMount(options.camera_pitch_rad);
   s.R_rig_vehicle = s.T_vehicle_rig.Rotation().toRotationMatrix().transpose();
   MAV_ASSIGN_OR_RETURN(
       control::Autopilot autopilot,
@@ -380,7 +384,7 @@ void LockstepDriver::Impl::Capture(int64_t frame) {
   vo_ms.Add(MsSince(vo_start));
   if (!pose.ok() || pose->state == localization::ReportedState::kLost) {
     ++stats.vo_lost;
-    vo_state = "lost";
+    vo_state = "lost (" + (pose.ok() ? pose->lost_reason : pose.status().message()) + ")";
     return;
   }
   ++stats.vo_tracked;

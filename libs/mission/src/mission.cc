@@ -80,6 +80,10 @@ bool MissionOptions::IsValid(std::string* why) const {
   if (msg.str().empty() && !landing_limits.IsValid(&limits_why)) {
     msg << "landing_limits." << limits_why;
   }
+  if (msg.str().empty() && !approach_limits.IsValid(&limits_why)) {
+    msg << "approach_limits." << limits_why;
+  }
+  positive(approach_height_m, "approach_height_m");
   if (msg.str().empty() && !(std::isfinite(ground_z_m) && legs_height_m >= 0)) {
     msg << "ground_z_m / legs_height_m: must be finite, legs >= 0";
   }
@@ -180,7 +184,7 @@ class Runner {
   // the reference (a GoTo from rest, as the autopilot flies it) passes 0.2 m above the resting
   // height: landed_after_ is that moment (at least landed_after_s).
   void StartDescent() {
-    descending_ = true;
+    landing_stage_ = LandingStage::kFinal;
     descent_started_ = t_;
     landed_after_ = o_.landed_after_s;
     geometry::TrajectoryPoint from;
@@ -201,6 +205,17 @@ class Runner {
     if (!s.ok()) Event("landing: " + s.ToString());
   }
 
+  // Over the landing column: down to approach_height_m above the resting height at
+  // approach_limits (skipped when already that low), then the final descent.
+  void Approach() {
+    const double approach_z = o_.ground_z_m + o_.legs_height_m + o_.approach_height_m;
+    if (v_.p_est.z() <= approach_z + 0.1) return StartDescent();
+    landing_stage_ = LandingStage::kApproach;
+    const Status s =
+        d_.GoTo({landing_target_.x(), landing_target_.y(), approach_z}, yaw_, o_.approach_limits);
+    if (!s.ok()) Event("landing: " + s.ToString());
+  }
+
   // Lands at the free column nearest to `p` (moving there first at p's altitude); ends with
   // `outcome`.
   void StartLanding(const Eigen::Vector3d& p, MissionOutcome outcome, MissionPhase phase) {
@@ -218,8 +233,8 @@ class Runner {
       Event("landing spot: " + found.status().message() + "; descending where it is");
     }
     landing_target_ = Ground(spot);
-    if ((spot - p).head<2>().norm() < 0.02) return StartDescent();
-    descending_ = false;
+    if ((spot - p).head<2>().norm() < 0.02) return Approach();
+    landing_stage_ = LandingStage::kMove;
     Event("moving to the free landing column at " + FormatPoint(spot));
     if (Status s = d_.GoTo(spot, yaw_, o_.takeoff_limits); !s.ok())
       Event("landing: " + s.ToString());
@@ -332,7 +347,7 @@ class Runner {
         (void)d_.GoTo(takeoff_point_, yaw_, o_.takeoff_limits);
         break;
       case MissionPhase::kLanding:
-        descending_ = false;  // back over the landing column first, then down
+        landing_stage_ = LandingStage::kMove;  // back over the landing column, then down
         (void)d_.GoTo({landing_target_.x(), landing_target_.y(), hold_p_.z()}, yaw_,
                       o_.takeoff_limits);
         break;
@@ -432,9 +447,10 @@ class Runner {
 
   void Land() {
     if (!v_.armed) return Finish(landing_outcome_, "");
-    if (!descending_) {
-      if (!v_.moving) StartDescent();
-      return;
+    if (landing_stage_ != LandingStage::kFinal) {
+      if (v_.moving) return;
+      if (landing_stage_ == LandingStage::kMove) return Approach();
+      return StartDescent();
     }
     if (t_ - descent_started_ < landed_after_ || v_.v_est.norm() > o_.landed_speed_mps) {
       landed_since_ = -1;
@@ -466,7 +482,11 @@ class Runner {
   MissionOutcome landing_outcome_ = MissionOutcome::kCompleted;
   double hover_until_ = 0, hold_started_ = 0, landed_since_ = -1, descent_started_ = 0,
          landed_after_ = 0;
-  bool replan_ = false, turning_ = false, seeded_ = false, descending_ = false;
+  // The landing's moves: to the free column at the current height, down to the approach
+  // height, the final descent.
+  enum class LandingStage { kMove, kApproach, kFinal };
+  LandingStage landing_stage_ = LandingStage::kMove;
+  bool replan_ = false, turning_ = false, seeded_ = false;
 };
 
 }  // namespace

@@ -78,6 +78,8 @@ struct LockstepOptions {
   // The estimator's model of the VO pose noise.
   double vo_position_sigma_m = 0.01;
   double vo_orientation_sigma_rad = 0.005;
+  // The camera looks forward, pitched down by this much (LockstepDriver::VehicleRigMount).
+  double camera_pitch_rad = 0;
   double imu_rate_hz = 200;
   double camera_rate_hz = 20;
   control::ControllerType controller = control::ControllerType::kPaper;
@@ -160,8 +162,9 @@ class LockstepDriver final : public MissionDriver {
   const control::Autopilot& autopilot() const;
   const sim::World& world() const;
   const planning::PlanningMap& planning_map() const;
-  // The vehicle's camera mounting (the rig's body frame in the vehicle's body frame).
-  static geometry::SE3 VehicleRigMount();
+  // The vehicle's camera mounting (the rig's body frame in the vehicle's body frame), looking
+  // forward and pitched down by `pitch_down_rad`.
+  static geometry::SE3 VehicleRigMount(double pitch_down_rad);
 
  private:
   struct Impl;

@@ -56,6 +56,11 @@ struct MissionOptions {
   // Moves flown without the planner: the take-off, and the landing's descent.
   control::GoToLimits takeoff_limits{0.5, 1.0, 0.5, 0.5};
   control::GoToLimits landing_limits{0.3, 0.5, 0.5, 0.5};
+  // A landing first descends at approach_limits to approach_height_m above the resting height
+  // (the final descent at landing_limits starts there: a slow move over metres would take
+  // minutes with the autopilot's smooth GoTo profile).
+  control::GoToLimits approach_limits{1.0, 1.0, 0.5, 0.5};
+  double approach_height_m = 0.5;
   // The take-off is done when the estimate is this close to the take-off point.
   double takeoff_tolerance_m = 0.1;
   // A goal counts as reached when its error (ground truth where known, else the estimate) at

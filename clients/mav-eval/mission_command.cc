@@ -31,6 +31,8 @@ namespace mav::eval_cli {
 namespace {
 
 constexpr const char* kCommand = "mav-eval mission";
+// Hovers at least this long get their t3_1 figures in the table (5 s settling + the window).
+constexpr double kHoverScoredS = 15;
 
 int Fail(const std::string& message, int code = 1) {
   std::cerr << kCommand << ": " << message << "\n";
@@ -153,6 +155,7 @@ struct Flown {
   mission::MissionReport report;
   mission::LockstepStats stats;
   control::AutopilotStatus autopilot;
+  std::vector<eval::WindowRms> hover;  // per goal: the t3_1 figures of its hover
   double ate_m = 0;
   double wall_s = 0;
 };
@@ -172,6 +175,10 @@ void PrintTable(const Flags& f, const Flown& r) {
     std::printf("  goal %zu (line %d)    %s  error %.3f m (estimate %.3f m)\n", i + 1, g.line,
                 g.reached ? "reached" : (g.visited ? "MISSED " : "not visited"), g.error_m,
                 g.estimate_error_m);
+    if (r.hover[i].samples > 0 && g.reached_at_s - g.hover_start_s >= kHoverScoredS) {
+      std::printf("    hover from +5 s:  position RMS %.4f m, angular-rate RMS %.4f rad/s\n",
+                  r.hover[i].position_rms_m, r.hover[i].angular_rate_rms_radps);
+    }
   }
   std::printf("  goals reached      %d of %zu\n", reached, report.goals.size());
   std::printf("  collisions         %lld\n", static_cast<long long>(stats.collisions));
@@ -211,7 +218,12 @@ std::string ReportJson(const Flags& f, const Flown& r) {
     j << (i ? ",\n" : "\n") << "    {\"reached\": " << (g.reached ? "true" : "false")
       << ", \"error_m\": " << JsonNumber(g.visited ? g.error_m : NAN)
       << ", \"estimate_error_m\": " << JsonNumber(g.visited ? g.estimate_error_m : NAN)
-      << ", \"line\": " << g.line << ", \"t_s\": " << JsonNumber(g.reached_at_s) << "}";
+      << ", \"line\": " << g.line << ", \"t_s\": " << JsonNumber(g.reached_at_s);
+    if (r.hover[i].samples > 0) {
+      j << ", \"hover_position_rms_m\": " << JsonNumber(r.hover[i].position_rms_m)
+        << ", \"hover_rate_rms_radps\": " << JsonNumber(r.hover[i].angular_rate_rms_radps);
+    }
+    j << "}";
   }
   j << "\n  ],\n  \"ate_m\": " << JsonNumber(r.ate_m)
     << ",\n  \"path_m\": " << JsonNumber(stats.path_m)
@@ -323,6 +335,9 @@ int RunMission(const std::vector<std::string>& args) {
   r.stats = (*driver)->stats();
   r.autopilot = (*driver)->autopilot().status();
   r.ate_m = mission::EstimateRmsError((*driver)->record());
+  for (const mission::GoalReport& g : r.report.goals) {
+    r.hover.push_back(mission::ScoreHover((*driver)->record(), g));
+  }
   PrintTable(f, r);
 
   if (!f.out_dir.empty()) {

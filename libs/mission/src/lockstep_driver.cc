@@ -93,6 +93,17 @@ double EstimateRmsError(const std::vector<FlightSample>& record) {
   return n ? std::sqrt(sum / static_cast<double>(n)) : std::nan("");
 }
 
+eval::WindowRms ScoreHover(const std::vector<FlightSample>& record, const GoalReport& goal,
+                           double settle_s) {
+  if (!goal.visited) return {};
+  std::vector<eval::FlightTraceSample> trace;
+  trace.reserve(record.size());
+  for (const FlightSample& s : record) {
+    trace.push_back({s.t_s, s.p_true, s.v_true, s.omega_true, s.p_est});
+  }
+  return eval::RmsOverWindow(trace, goal.hover_start_s + settle_s, goal.reached_at_s, goal.goal);
+}
+
 geometry::SE3 LockstepDriver::VehicleRigMount(double pitch_down_rad) {
   // Rig body axes in the vehicle's: x (up) = vehicle z, z (forward) = vehicle x, y = -vehicle y;
   // then pitched down about the vehicle's y axis.

@@ -277,6 +277,7 @@ class Runner {
         if (!v_.moving) {
           phase_ = MissionPhase::kHovering;
           hover_until_ = t_ + m_.goals[goal_].hover_s;
+          r_.goals[goal_].hover_start_s = t_;
         }
         return;
       case MissionPhase::kHovering:

@@ -143,6 +143,30 @@ TEST(LockstepMissionTest, GoalInsideAnObstacleIsRefusedBeforeTakeOff) {
   EXPECT_TRUE((*driver)->record().empty()) << "nothing was flown";
 }
 
+// The hover figures: ground truth against the goal over [hover start + 5 s, hover end).
+TEST(LockstepMissionTest, HoverScoreIsTheRmsOverTheSettledWindow) {
+  GoalReport goal;
+  goal.goal = Eigen::Vector3d(1, 2, 1);
+  goal.visited = true;
+  goal.hover_start_s = 10;
+  goal.reached_at_s = 40;
+  std::vector<FlightSample> record;
+  for (int k = 0; k <= 900; ++k) {  // 45 s at 20 Hz
+    FlightSample s;
+    s.t_s = k * 0.05;
+    // 0.3 m off while settling (before 15 s), then 0.01 m; 0.02 rad/s.
+    s.p_true = goal.goal + Eigen::Vector3d(s.t_s < 15 ? 0.3 : 0.01, 0, 0);
+    s.omega_true = Eigen::Vector3d(0, 0.02, 0);
+    record.push_back(s);
+  }
+  const eval::WindowRms hover = ScoreHover(record, goal);
+  EXPECT_EQ(hover.samples, 500);  // [15, 40) s
+  EXPECT_NEAR(hover.position_rms_m, 0.01, 1e-12);
+  EXPECT_NEAR(hover.angular_rate_rms_radps, 0.02, 1e-12);
+  goal.visited = false;
+  EXPECT_EQ(ScoreHover(record, goal).samples, 0);
+}
+
 TEST(LockstepMissionTest, InvalidOptionsNameTheField) {
   dataset::MissionSpec mission = ShortRoomMission();
   LockstepOptions options;

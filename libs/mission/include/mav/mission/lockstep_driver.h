@@ -33,9 +33,11 @@
 #include "mav/common/termination.h"
 #include "mav/control/autopilot.h"
 #include "mav/dataset/mission_file.h"
+#include "mav/eval/contest_score.h"
 #include "mav/geometry/se3.h"
 #include "mav/localization/odometry.h"
 #include "mav/mission/driver.h"
+#include "mav/mission/mission.h"
 #include "mav/planning/trajectory.h"
 
 namespace mav::sim {
@@ -114,6 +116,12 @@ struct FlightSample {
 // The mission's ATE: RMS of |estimate - ground truth| over the samples while armed, without
 // alignment; NaN when none was armed.
 double EstimateRmsError(const std::vector<FlightSample>& record);
+
+// The contest's hover figures (t3_1, mav/eval/contest_score.h) of a goal's hover, from the
+// ground truth: RMS of |p - goal| and of |omega| over [hover_start_s + settle_s, reached_at_s).
+// samples = 0 when the goal was not visited or the window is empty.
+eval::WindowRms ScoreHover(const std::vector<FlightSample>& record, const GoalReport& goal,
+                           double settle_s = 5.0);
 
 struct LockstepStats {
   uint64_t frames = 0;          // stereo pairs rendered

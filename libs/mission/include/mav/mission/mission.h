@@ -93,6 +93,7 @@ struct GoalReport {
   bool visited = false;          // its hover ended (false: the mission ended before)
   double error_m = -1;           // ground truth - goal at the hover's end (-1: unknown)
   double estimate_error_m = -1;  // estimate - goal then
+  double hover_start_s = -1;     // mission time the hover began (the leg's end)
   double reached_at_s = -1;      // mission time of the hover's end
 };
 

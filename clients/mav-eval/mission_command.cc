@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -89,10 +90,11 @@ Status WritePlot(const std::string& path, const dataset::MissionSpec& spec,
 // The command line.
 struct Flags {
   std::string mission_path, out_dir, json_path, pose_source = "vo";
-  std::string vo_method = "sparse-subpixel", controller = "paper", outage, world;
+  std::string vo_method = "sparse-subpixel", controller = "paper", outage, world, map = "truth";
   uint64_t seed = 1;
   double vo_latency_s = 0.05, max_speed = 0, timeout_s = 900, camera_pitch_deg = 0;
   bool quiet = false;
+  bool face_goals = false;
 };
 
 // The driver's options from the flags; InvalidArgument naming the flag.
@@ -107,6 +109,12 @@ Result<mission::LockstepOptions> DriverOptions(const Flags& f) {
                                    " is not one of vo, contest, truth");
   }
   options.pose_source = *source;
+  const std::optional<mission::MapSource> map = mission::ParseMapSource(f.map);
+  if (!map) {
+    return Status::InvalidArgument("--map: " + QuoteForError(f.map) +
+                                   " is not one of truth, online");
+  }
+  options.map_source = *map;
   const std::optional<localization::Method> method = localization::ParseMethod(f.vo_method);
   if (!method) {
     return Status::InvalidArgument("--vo-method: " + QuoteForError(f.vo_method) +
@@ -155,7 +163,8 @@ struct Flown {
   mission::MissionReport report;
   mission::LockstepStats stats;
   control::AutopilotStatus autopilot;
-  std::vector<eval::WindowRms> hover;  // per goal: the t3_1 figures of its hover
+  std::vector<eval::WindowRms> hover;              // per goal: the t3_1 figures of its hover
+  std::optional<mission::MapQuality> map_quality;  // the final map against the exact world
   double ate_m = 0;
   double wall_s = 0;
 };
@@ -199,6 +208,17 @@ void PrintTable(const Flags& f, const Flown& r) {
               static_cast<unsigned long long>(stats.poses_rejected));
   std::printf("  planning           %d plans, %d replans (%.0f ms mean) on the %s\n", report.plans,
               report.replans, stats.plan_ms.mean_ms, stats.map_description.c_str());
+  if (stats.map_rebuilds > 0) {
+    std::printf("  online map         %lld keyframes, %llu rebuilds (%.0f ms mean), %llu errors\n",
+                static_cast<long long>(stats.keyframes),
+                static_cast<unsigned long long>(stats.map_rebuilds), stats.map_build_ms.mean_ms,
+                static_cast<unsigned long long>(stats.map_errors));
+  }
+  if (r.map_quality) {
+    std::printf("  final map          MCC %.3f, missed collisions %.2f %%, false %.2f %% (%s)\n",
+                r.map_quality->mcc, r.map_quality->missed_percent, r.map_quality->false_percent,
+                r.map_quality->observable_only ? "observable volume" : "whole world");
+  }
   std::printf("  holds              %d\n", report.holds);
 }
 
@@ -239,8 +259,15 @@ std::string ReportJson(const Flags& f, const Flown& r) {
     << "},\n  \"estimator\": {\"poses_merged\": " << r.autopilot.poses
     << ", \"poses_rejected\": " << stats.poses_rejected
     << "},\n  \"mapping\": {\"map\": " << JsonQuote(stats.map_description)
-    << ", \"keyframes\": 0, \"rebuilds\": 0},\n  \"planning\": {\"plans\": " << report.plans
-    << ", \"replans\": " << report.replans
+    << ", \"keyframes\": " << stats.keyframes << ", \"rebuilds\": " << stats.map_rebuilds
+    << ", \"build_ms_mean\": " << JsonNumber(stats.map_build_ms.mean_ms)
+    << ", \"errors\": " << stats.map_errors;
+  if (r.map_quality) {
+    j << ", \"mcc\": " << JsonNumber(r.map_quality->mcc)
+      << ", \"missed_percent\": " << JsonNumber(r.map_quality->missed_percent)
+      << ", \"false_percent\": " << JsonNumber(r.map_quality->false_percent);
+  }
+  j << "},\n  \"planning\": {\"plans\": " << report.plans << ", \"replans\": " << report.replans
     << ", \"plan_ms_mean\": " << JsonNumber(stats.plan_ms.mean_ms)
     << "},\n  \"setup_s\": " << JsonNumber(stats.setup_s) << ",\n  \"events\": [";
   for (size_t i = 0; i < report.events.size(); ++i) {
@@ -251,10 +278,8 @@ std::string ReportJson(const Flags& f, const Flown& r) {
   return j.str();
 }
 
-}  // namespace
-
-int RunMission(const std::vector<std::string>& args) {
-  Flags f;
+// The command's flags, bound to *f.
+FlagParser MakeFlags(Flags* f) {
   FlagParser flags(
       "mav-eval mission --mission FILE [--seed S] [--pose-source vo|contest|truth] [--out DIR] "
       "[--json FILE]\n\n"
@@ -262,31 +287,44 @@ int RunMission(const std::vector<std::string>& args) {
       "simulated vehicle\nin the mission's world, its rendered stereo camera and IMU, the VO, the "
       "estimator and controller,\nthe planner and the mission logic. Exit status 0 only when the "
       "mission completed.");
-  flags.AddString("mission", &f.mission_path, "mission file (YAML, docs/formats.md)");
-  flags.AddUint64("seed", &f.seed, "seed of the simulation (textures, noise, roadmap)");
-  flags.AddString("pose-source", &f.pose_source,
+  flags.AddString("mission", &f->mission_path, "mission file (YAML, docs/formats.md)");
+  flags.AddUint64("seed", &f->seed, "seed of the simulation (textures, noise, roadmap)");
+  flags.AddString("pose-source", &f->pose_source,
                   "the estimator's pose: vo (stereo VO on the rendered images), contest (the "
                   "contest's 10 Hz sensor), truth (debugging)");
-  flags.AddString("world", &f.world,
+  flags.AddString("map", &f->map,
+                  "the planner's map: truth (the world's exact occupancy) or online (built during "
+                  "the flight from the VO's keyframes; needs --pose-source vo)");
+  flags.AddString("world", &f->world,
                   "fly in this preset instead of the file's world (room-easy, room-medium and "
                   "room-hard share one layout)");
-  flags.AddString("vo-method", &f.vo_method, "sparse-subpixel, sparse-pixel or dense");
-  flags.AddString("controller", &f.controller, "paper or lee");
-  flags.AddDouble("vo-latency", &f.vo_latency_s, "modelled VO latency, s (capture to estimator)", 0,
-                  0.5);
-  flags.AddDouble("camera-pitch", &f.camera_pitch_deg,
+  flags.AddString("vo-method", &f->vo_method, "sparse-subpixel, sparse-pixel or dense");
+  flags.AddString("controller", &f->controller, "paper or lee");
+  flags.AddDouble("vo-latency", &f->vo_latency_s, "modelled VO latency, s (capture to estimator)",
+                  0, 0.5);
+  flags.AddDouble("camera-pitch", &f->camera_pitch_deg,
                   "the stereo camera's downward pitch on the vehicle, degrees", 0, 60);
-  flags.AddDouble("max-speed", &f.max_speed, "planned speed limit, m/s (0 = the world's default)",
+  flags.AddDouble("max-speed", &f->max_speed, "planned speed limit, m/s (0 = the world's default)",
                   0, 20);
-  flags.AddString("localization-outage", &f.outage,
+  flags.AddString("localization-outage", &f->outage,
                   "START,DURATION: the localization is down for DURATION s from START s and comes "
                   "back restarted (fault injection)");
-  flags.AddDouble("timeout", &f.timeout_s,
+  flags.AddDouble("timeout", &f->timeout_s,
                   "abort the mission after this long in simulated time, s (outcome aborted)", 1,
                   7000);
-  flags.AddString("out", &f.out_dir, "write trajectory.csv and mission.png here");
-  flags.AddString("json", &f.json_path, "write the report here");
-  flags.AddBool("quiet", &f.quiet, "no progress line");
+  flags.AddString("out", &f->out_dir, "write trajectory.csv and mission.png here");
+  flags.AddString("json", &f->json_path, "write the report here");
+  flags.AddBool("quiet", &f->quiet, "no progress line");
+  flags.AddBool("face-goals", &f->face_goals,
+                "turn to face each goal before its leg (always with --map online)");
+  return flags;
+}
+
+}  // namespace
+
+int RunMission(const std::vector<std::string>& args) {
+  Flags f;
+  FlagParser flags = MakeFlags(&f);
   bool help = false;
   if (Status s = flags.Parse(args, nullptr, &help); !s.ok()) {
     return Fail(s.message() + "\n" + flags.Help(), 2);
@@ -306,6 +344,7 @@ int RunMission(const std::vector<std::string>& args) {
   if (!f.world.empty()) r.spec.world = f.world;
   mission::MissionOptions mission_options;
   mission_options.timeout_s = f.timeout_s;
+  mission_options.face_goals = f.face_goals || f.map == "online";
   if (r.spec.world == "plant") mission_options.goal_tolerance_m = 0.5;
 
   const auto wall_start = std::chrono::steady_clock::now();
@@ -338,6 +377,11 @@ int RunMission(const std::vector<std::string>& args) {
   for (const mission::GoalReport& g : r.report.goals) {
     r.hover.push_back(mission::ScoreHover((*driver)->record(), g));
   }
+  if (options->map_source == mission::MapSource::kOnline) {
+    Result<mission::MapQuality> quality = (*driver)->EvaluateMap();
+    if (!quality.ok()) return Fail("evaluating the final map: " + quality.status().ToString());
+    r.map_quality = *quality;
+  }
   PrintTable(f, r);
 
   if (!f.out_dir.empty()) {
@@ -349,8 +393,8 @@ int RunMission(const std::vector<std::string>& args) {
     if (Status s = WritePlot(f.out_dir + "/mission.png", r.spec, r.report, **driver); !s.ok()) {
       return Fail(s.message());
     }
-    std::printf("  wrote              %s/trajectory.csv, %s/mission.png\n", f.out_dir.c_str(),
-                f.out_dir.c_str());
+    if (Status s = (*driver)->WriteMap(f.out_dir + "/map.bt"); !s.ok()) return Fail(s.message());
+    std::printf("  wrote              %s/trajectory.csv, mission.png, map.bt\n", f.out_dir.c_str());
   }
   if (!f.json_path.empty()) {
     if (Status s = WriteStringToFileAtomic(f.json_path, ReportJson(f, r)); !s.ok()) {

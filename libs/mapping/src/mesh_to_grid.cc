@@ -236,7 +236,7 @@ Result<OccupancyGrid> MeshToOccupancy(const MeshingResult& meshing,
   }
   OccupancyGrid grid(geometry, VoxelState::kUnknown);
   Eigen::Vector3d v[4];
-  for (int pass = 0; pass < 2; ++pass) {
+  for (int pass = 0; pass < (options.occupy_inside_cells ? 2 : 1); ++pass) {
     const bool inside_pass = pass == 1;
     for (const Tetrahedron& t : meshing.tetrahedra) {
       if (t.inside != inside_pass) continue;

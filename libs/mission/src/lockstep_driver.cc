@@ -15,6 +15,9 @@
 #include "mav/dataset/occupancy_io.h"
 #include "mav/eval/flight_mission.h"
 #include "mav/localization/rig_odometry.h"
+#include "mav/mapping/collision_eval.h"
+#include "mav/mapping/observability.h"
+#include "mav/mapping/pipeline.h"
 #include "mav/planning/planner.h"
 #include "mav/planning/planning_map.h"
 #include "mav/planning/roadmap.h"
@@ -46,6 +49,17 @@ std::optional<PoseSource> ParsePoseSource(std::string_view name) {
   return std::nullopt;
 }
 
+const char* MapSourceName(MapSource source) {
+  return source == MapSource::kOnline ? "online" : "truth";
+}
+
+std::optional<MapSource> ParseMapSource(std::string_view name) {
+  for (MapSource s : {MapSource::kGroundTruth, MapSource::kOnline}) {
+    if (name == MapSourceName(s)) return s;
+  }
+  return std::nullopt;
+}
+
 bool LockstepOptions::IsValid(std::string* why) const {
   std::ostringstream msg;
   auto check = [&](bool ok, const char* what) {
@@ -65,6 +79,10 @@ bool LockstepOptions::IsValid(std::string* why) const {
   check(robot_radius_m == 0 || (robot_radius_m > 0.1 && robot_radius_m <= 3),
         "robot_radius_m: must be 0 (the world's default) or in (0.1, 3]");
   check(roadmap_milestones <= 1'000'000, "roadmap_milestones: at most 1000000");
+  check(map_source == MapSource::kGroundTruth || pose_source == PoseSource::kVo,
+        "map_source: the online map is built from the VO's keyframes (pose_source vo)");
+  check(map_rebuild_s > 0 && map_rebuild_s <= 60, "map_rebuild_s: must be in (0, 60]");
+  check(map_max_depth_m >= 1 && map_max_depth_m <= 50, "map_max_depth_m: must be in [1, 50]");
   check(record_rate_hz > 0 && record_rate_hz <= imu_rate_hz,
         "record_rate_hz: must be in (0, imu_rate_hz]");
   std::string limits_why;
@@ -209,6 +227,14 @@ struct LockstepDriver::Impl {
   geometry::SE3 T_vehicle_rig;
   Eigen::Matrix3d R_rig_vehicle;
   std::shared_ptr<const planning::PlanningMap> map;
+  dataset::OccupancyGrid truth_grid;     // the world's exact occupancy (also the map's geometry)
+  dataset::OccupancyGrid planning_grid;  // what `map` was built from
+  // The online map (MapSource::kOnline).
+  std::unique_ptr<mapping::MappingPipeline> mapper;
+  std::vector<geometry::SE3> keyframe_truth;  // true T_world_rect0 of every keyframe
+  int64_t keyframes_at_build = 0;
+  int64_t next_build_ns = 0;
+  uint64_t map_version = 0;
   std::shared_ptr<const planning::Roadmap> roadmap;
   planning::SpeedLimits limits;
 
@@ -226,10 +252,22 @@ struct LockstepDriver::Impl {
   std::vector<FlightSample> record;
   Eigen::Vector3d last_p = Eigen::Vector3d::Zero();
   LockstepStats stats;
-  RuntimeWindow render_ms{100000}, vo_ms{100000}, plan_ms{10000};
+  RuntimeWindow render_ms{100000}, vo_ms{100000}, plan_ms{10000}, map_build_ms{10000};
 
-  // The planning map (the world's exact occupancy), its roadmap and the speed limits.
+  // The planning map (the world's exact occupancy, or the online map's prior), its roadmap and
+  // the speed limits.
   Status BuildPlanning(const ProgressCallback& progress);
+  // Replaces the planning map and its roadmap by `grid`'s.
+  Status LoadPlanningMap(const dataset::OccupancyGrid& grid, const std::string& what,
+                         const ProgressCallback& progress);
+  // The voxels below the take-off's ground are occupied.
+  void AddGroundPrior(dataset::OccupancyGrid* grid) const;
+  // The online map from the keyframes so far (the sparse mesh of libs/mapping).
+  Status RebuildOnlineMap();
+  // Offers a tracked frame (the VO's rig pose; the true one for the map's evaluation) to the
+  // online map's keyframe selection.
+  Status MapFrame(const cv::Mat& left, const cv::Mat& right, const geometry::SE3& T_world_rig,
+                  const geometry::SE3& T_world_rig_true);
   void StepOnce();
   void Capture(int64_t frame);
   bool InOutage(int64_t t_ns, bool* restart) const;
@@ -243,30 +281,82 @@ Status LockstepDriver::Impl::BuildPlanning(const ProgressCallback& progress) {
   const bool room = IsRoom(mission.world);
   const double resolution =
       options.map_resolution_m > 0 ? options.map_resolution_m : (room ? 0.05 : 0.25);
+  limits = options.limits.value_or(WorldSpeedLimits(room));
   if (progress) progress("ground-truth map", 0.0);
-  const dataset::OccupancyGrid grid = sim::ComputeOccupancy(*world, resolution);
+  truth_grid = sim::ComputeOccupancy(*world, resolution);
+  if (options.map_source == MapSource::kGroundTruth) {
+    return LoadPlanningMap(truth_grid, "ground-truth occupancy", progress);
+  }
+  // The online map starts as the ground below the take-off (the one thing known before the
+  // flight) and everything else unknown.
+  dataset::OccupancyGrid prior(truth_grid.geometry());
+  AddGroundPrior(&prior);
+  return LoadPlanningMap(prior, "online map (no keyframe yet)", progress);
+}
+
+void LockstepDriver::Impl::AddGroundPrior(dataset::OccupancyGrid* grid) const {
+  const double ground = mission.start.z();
+  for (int k = 0; k < grid->size().z(); ++k) {
+    if (grid->CenterOf({0, 0, k}).z() >= ground) break;
+    for (int j = 0; j < grid->size().y(); ++j) {
+      for (int i = 0; i < grid->size().x(); ++i) {
+        (*grid)[grid->Linear(i, j, k)] = dataset::VoxelState::kOccupied;
+      }
+    }
+  }
+}
+
+Status LockstepDriver::Impl::LoadPlanningMap(const dataset::OccupancyGrid& grid,
+                                             const std::string& what,
+                                             const ProgressCallback& progress) {
+  const bool room = IsRoom(mission.world);
   MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(grid));
   planning::MapOptions map_options;
   map_options.robot_radius_m =
       options.robot_radius_m > 0 ? options.robot_radius_m : (room ? 0.4 : 0.8);
+  // Unknown space: an obstacle in the exact map (there is none inside the world); free in the
+  // online map, where the forward camera has not seen most of the volume yet: legs are planned
+  // through it and re-checked, and re-planned, as the map fills in (mission.h).
+  map_options.unknown_space = options.map_source == MapSource::kOnline
+                                  ? planning::UnknownSpace::kFree
+                                  : planning::UnknownSpace::kObstacle;
   // The preset's flight volume down to the ground (landings descend through it).
   Eigen::Vector3d volume_min = preset.flight_bounds.min();
   volume_min.z() = std::min(volume_min.z(), mission.start.z());
   map_options.planning_bounds = planning::Box{volume_min, preset.flight_bounds.max()};
-  MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(bt, mission.world + " ground truth",
+  MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(bt, mission.world + " " + what,
                                                              map_options, {}, progress));
   planning::RoadmapOptions roadmap_options;
   roadmap_options.max_milestones =
       options.roadmap_milestones > 0 ? options.roadmap_milestones : (room ? 20'000 : 60'000);
   roadmap_options.seed = options.seed;
-  roadmap_options.validity_resolution_m = std::min(resolution, 0.05);
+  roadmap_options.validity_resolution_m = std::min(grid.resolution(), 0.05);
   MAV_ASSIGN_OR_RETURN(roadmap, planning::Roadmap::Build(*map, roadmap_options, {}, progress));
-  limits = options.limits.value_or(WorldSpeedLimits(room));
+  planning_grid = grid;
   std::ostringstream description;
-  description << "ground-truth occupancy of " << mission.world << " at " << resolution
+  description << what << " of " << mission.world << " at " << grid.resolution()
               << " m, robot radius " << map_options.robot_radius_m << " m, "
               << roadmap->info().milestones << " roadmap milestones";
   stats.map_description = description.str();
+  return Status::Ok();
+}
+
+Status LockstepDriver::Impl::RebuildOnlineMap() {
+  const auto start = Clock::now();
+  // A map of a partly seen room: the observed surfaces occupied, the space the lines of sight
+  // crossed free, the rest (the graph cut's inside of unexplored space too) unknown.
+  mapping::BuildOptions build = mapping::BuildOptions::For(mapping::MapPreference::kSafety);
+  build.mesh_to_grid->occupy_inside_cells = false;
+  build.mesh_to_grid->occupy_surface_voxels = true;
+  build.min_visibility = options.map_min_visibility;
+  MAV_ASSIGN_OR_RETURN(mapping::MethodMap built, mapper->Build(mapping::MappingMethod::kSparseMesh,
+                                                               truth_grid.geometry(), build));
+  AddGroundPrior(&built.grid);
+  MAV_RETURN_IF_ERROR(LoadPlanningMap(
+      built.grid, "online map (" + std::to_string(built.keyframes) + " keyframes)", {}));
+  keyframes_at_build = built.keyframes;
+  ++map_version;
+  map_build_ms.Add(MsSince(start));
   return Status::Ok();
 }
 
@@ -318,6 +408,14 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
     const sim::MulticopterState& x0 = s.out->truth;
     vo.T_world_body0 = geometry::SE3(x0.q_world_body, x0.p_world) * s.T_vehicle_rig;
     MAV_ASSIGN_OR_RETURN(s.vo, localization::RigOdometry::Create(vo));
+  }
+  if (options.map_source == MapSource::kOnline) {
+    mapping::MappingPipelineOptions mapping_options;
+    mapping_options.run_octomap = false;
+    mapping_options.sparse.max_depth_m = options.map_max_depth_m;
+    MAV_ASSIGN_OR_RETURN(mapping::MappingPipeline mapper,
+                         mapping::MappingPipeline::Create(s.vo->rig(), mapping_options));
+    s.mapper = std::make_unique<mapping::MappingPipeline>(std::move(mapper));
   }
   s.frame_period_ns = PeriodNs(options.camera_rate_hz);
   s.record_period_ns = PeriodNs(options.record_rate_hz);
@@ -396,14 +494,37 @@ void LockstepDriver::Impl::Capture(int64_t frame) {
   if (!pose.ok() || pose->state == localization::ReportedState::kLost) {
     ++stats.vo_lost;
     vo_state = "lost (" + (pose.ok() ? pose->lost_reason : pose.status().message()) + ")";
+    // The VO starts its next track where the estimator (IMU-propagated over the lost frames)
+    // puts the vehicle, not at its own last pose: the motion while it was lost is not lost.
+    if (options.reseed_after_loss && ap->estimator().initialized()) {
+      const control::EstimatorState& e = ap->estimator().state();
+      vo->Reset(geometry::SE3(e.q_world_body, e.p_world) * T_vehicle_rig);
+    }
     return;
   }
   ++stats.vo_tracked;
   vo_state = localization::ReportedStateName(pose->state);
+  if (mapper && pose->state == localization::ReportedState::kOk) {
+    const geometry::SE3 T_world_rig_true = TruthBetween(t_ns) * T_vehicle_rig;
+    if (!MapFrame(left, right, pose->T_world_out, T_world_rig_true).ok()) ++stats.map_errors;
+  }
   PendingPose p;
   p.arrival_ns = t_ns + SecondsToNs(options.vo_latency_s);
   p.pose = control::PoseMeasurement{t_ns, 0, pose->T_world_out};
   pending.push_back(p);
+}
+
+Status LockstepDriver::Impl::MapFrame(const cv::Mat& left, const cv::Mat& right,
+                                      const geometry::SE3& T_world_rig,
+                                      const geometry::SE3& T_world_rig_true) {
+  const geometry::SE3 T_world_rect0 = T_world_rig * vo->T_body_rect0();
+  MAV_ASSIGN_OR_RETURN(const bool keyframe, mapper->ConsiderFrame(T_world_rect0));
+  if (!keyframe) return Status::Ok();
+  cv::Mat rect_left, rect_right;
+  MAV_RETURN_IF_ERROR(vo->Rectify(left, right, /*rectified=*/false, &rect_left, &rect_right));
+  MAV_RETURN_IF_ERROR(mapper->InsertKeyframe(rect_left, rect_right, T_world_rect0));
+  keyframe_truth.push_back(T_world_rig_true * vo->T_body_rect0());
+  return Status::Ok();
 }
 
 void LockstepDriver::Impl::StepOnce() {
@@ -445,6 +566,12 @@ void LockstepDriver::Impl::StepOnce() {
         SecondsToNs(std::max(0.0, rig->effects().shutter_s) / 2) + sim->step_ns() / 2;
     while (next_frame * frame_period_ns + shutter_half_ns <= out->t_ns) Capture(next_frame++);
   }
+  // The online map is rebuilt every map_rebuild_s while new keyframes come (in the vehicle's
+  // time: the build's wall time is measured, the lock-step clock waits for it).
+  if (mapper && mapper->num_keyframes() > keyframes_at_build && out->t_ns >= next_build_ns) {
+    next_build_ns = out->t_ns + SecondsToNs(options.map_rebuild_s);
+    if (!RebuildOnlineMap().ok()) ++stats.map_errors;
+  }
 }
 
 Result<VehicleView> LockstepDriver::Advance(double dt_s) {
@@ -477,6 +604,7 @@ Result<VehicleView> LockstepDriver::Advance(double dt_s) {
   v.localization_state = s.vo ? s.vo_state : PoseSourceName(s.options.pose_source);
   v.poses_rejected = s.ap->estimator().counters().poses_rejected;
   v.collisions = s.sim->collision_count();
+  v.map_version = s.map_version;
   v.p_true = s.out->truth.p_world;
   return v;
 }
@@ -597,6 +725,9 @@ LockstepStats LockstepDriver::stats() const {
   st.render_ms = impl_->render_ms.Summary();
   st.vo_ms = impl_->vo_ms.Summary();
   st.plan_ms = impl_->plan_ms.Summary();
+  st.map_build_ms = impl_->map_build_ms.Summary();
+  st.keyframes = impl_->mapper ? impl_->mapper->num_keyframes() : 0;
+  st.map_rebuilds = impl_->map_version;
   st.poses_rejected = impl_->ap->estimator().counters().poses_rejected;
   st.collisions = impl_->sim->collision_count();
   for (const sim::Collision& c : impl_->sim->collisions()) {
@@ -610,5 +741,31 @@ LockstepStats LockstepDriver::stats() const {
 const control::Autopilot& LockstepDriver::autopilot() const { return *impl_->ap; }
 const sim::World& LockstepDriver::world() const { return *impl_->world; }
 const planning::PlanningMap& LockstepDriver::planning_map() const { return *impl_->map; }
+
+Status LockstepDriver::WriteMap(const std::string& path) const {
+  return dataset::WriteOctomapBt(impl_->planning_grid, path);
+}
+
+Result<MapQuality> LockstepDriver::EvaluateMap() const {
+  const Impl& s = *impl_;
+  MapQuality q;
+  mapping::CollisionEvalOptions eval_options;
+  // Unknown counts as the planner counts it (free in the online map).
+  eval_options.computed_unknown_is_occupied = s.options.map_source == MapSource::kGroundTruth;
+  std::vector<uint8_t> observable;
+  if (!s.keyframe_truth.empty()) {
+    MAV_ASSIGN_OR_RETURN(observable,
+                         mapping::ObservableVoxels(s.truth_grid, s.keyframe_truth, s.vo->rig()));
+    eval_options.observable = &observable;
+    q.observable_only = true;
+  }
+  MAV_ASSIGN_OR_RETURN(const mapping::CollisionOutcomes outcomes,
+                       mapping::EvaluateCollisions(s.truth_grid, s.planning_grid, eval_options));
+  q.mcc = outcomes.Mcc();
+  q.missed_percent = outcomes.Percent(outcomes.missed_collision);
+  q.false_percent = outcomes.Percent(outcomes.false_collision);
+  q.positions = outcomes.total();
+  return q;
+}
 
 }  // namespace mav::mission

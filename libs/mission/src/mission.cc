@@ -174,7 +174,14 @@ class Runner {
     return s.str();
   }
 
-  double GoalYaw(int i) const { return m_.goals[i].yaw_rad.value_or(yaw_); }
+  // The yaw a leg to goal i flies with: the goal's own, else (face_goals) the direction from the
+  // leg's start to the goal, else the yaw held so far.
+  double GoalYaw(int i) const {
+    if (m_.goals[i].yaw_rad) return *m_.goals[i].yaw_rad;
+    const Eigen::Vector2d d = (m_.goals[i].position - leg_start_).head<2>();
+    if (o_.face_goals && d.norm() > 0.3) return std::atan2(d.y(), d.x());
+    return yaw_;
+  }
 
   Eigen::Vector3d Ground(const Eigen::Vector3d& p) const {
     return {p.x(), p.y(), o_.ground_z_m + o_.legs_height_m - o_.landing_overshoot_m};
@@ -274,6 +281,10 @@ class Runner {
       case MissionPhase::kPlanning:
         return PlanLeg();
       case MissionPhase::kFlying:
+        if (v_.map_version != map_version_) {
+          map_version_ = v_.map_version;
+          if (ReplanIfBlocked()) return;
+        }
         if (!v_.moving) {
           phase_ = MissionPhase::kHovering;
           hover_until_ = t_ + m_.goals[goal_].hover_s;
@@ -407,6 +418,8 @@ class Runner {
     }
     const Status s = d_.Follow(plan->trajectory);
     if (!s.ok()) return Abort(GoalName(goal_) + ": following its plan: " + s.ToString());
+    leg_ = plan->trajectory;
+    leg_t0_ = t_;
     LegReport leg;
     leg.goal = goal_;
     leg.replan = replan_;
@@ -418,6 +431,25 @@ class Runner {
     if (replan_) ++r_.replans;
     replan_ = false;
     phase_ = MissionPhase::kFlying;
+  }
+
+  // The map changed during a leg: when the rest of the leg (from lookahead on) is no longer a
+  // place the vehicle may be, it holds and the leg is planned again from there. True if so.
+  bool ReplanIfBlocked() {
+    constexpr double kLookaheadS = 0.5, kStepS = 0.1;
+    for (double tau = t_ - leg_t0_ + kLookaheadS; tau <= leg_.duration_s(); tau += kStepS) {
+      const Eigen::Vector3d p = leg_.Evaluate(tau).position;
+      const Status s = d_.CheckPoint(p);
+      if (s.ok()) continue;
+      Event("the map now blocks the leg at " + FormatPoint(p) + " (" + s.message() +
+            "): re-planning from " + FormatPoint(v_.p_est));
+      if (Status hold = d_.Hold(v_.p_est, yaw_); !hold.ok()) Event("hold: " + hold.ToString());
+      leg_start_ = v_.p_est;
+      replan_ = true;
+      phase_ = MissionPhase::kPlanning;
+      return true;
+    }
+    return false;
   }
 
   void Hover() {
@@ -481,6 +513,9 @@ class Runner {
   Eigen::Vector3d hold_p_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d landing_target_ = Eigen::Vector3d::Zero();
   MissionOutcome landing_outcome_ = MissionOutcome::kCompleted;
+  geometry::PolynomialTrajectory leg_;  // the leg being flown, started at leg_t0_
+  double leg_t0_ = 0;
+  uint64_t map_version_ = 0;
   double hover_until_ = 0, hold_started_ = 0, landed_since_ = -1, descent_started_ = 0,
          landed_after_ = 0;
   // The landing's moves: to the free column at the current height, down to the approach

@@ -52,6 +52,31 @@ TEST(MeshToOccupancyTest, SingleTetrahedron) {
   EXPECT_GT(expected, 100);
 }
 
+// Rule 3 off (a map of a partly seen scene): the inside cell stays unknown, its surface triangles
+// still occupy the voxels they touch.
+TEST(MeshToOccupancyTest, InsideCellsLeftUnknownKeepTheirSurface) {
+  MeshingResult m = OneInsideTetrahedron({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}});
+  m.mesh.vertices = m.points;
+  m.mesh.triangles = {{1, 2, 3}};  // the slanted face x + y + z = 1
+  GridGeometry g;
+  g.origin = Eigen::Vector3d(-0.5, -0.5, -0.5);
+  g.resolution = 0.1;
+  g.size = Eigen::Vector3i(20, 20, 20);
+  MeshToGridOptions options;
+  options.carve_lines_of_sight = false;
+  options.occupy_surface_voxels = true;
+  options.occupy_inside_cells = false;
+  const auto grid = MeshToOccupancy(m, {}, {}, g, options);
+  ASSERT_TRUE(grid.ok()) << grid.status().ToString();
+  EXPECT_EQ(grid->StateAt({0.12, 0.12, 0.12}), VoxelState::kUnknown);   // deep inside
+  EXPECT_EQ(grid->StateAt({0.34, 0.34, 0.34}), VoxelState::kOccupied);  // on the face
+  options.occupy_inside_cells = true;
+  const auto full = MeshToOccupancy(m, {}, {}, g, options);
+  ASSERT_TRUE(full.ok());
+  EXPECT_EQ(full->StateAt({0.12, 0.12, 0.12}), VoxelState::kOccupied);
+  EXPECT_GT(full->Count(VoxelState::kOccupied), grid->Count(VoxelState::kOccupied));
+}
+
 TEST(MeshToOccupancyTest, SurfaceTrianglesAndCarving) {
   MeshingResult m;
   m.points = {{0.02, 0.02, 0.5}, {0.98, 0.02, 0.5}, {0.02, 0.98, 0.5}};

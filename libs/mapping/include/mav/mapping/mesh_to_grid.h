@@ -6,7 +6,9 @@
 //  1. every voxel starts kUnknown;
 //  2. a voxel whose centre lies in an outside-labelled finite tetrahedron is kFree (with
 //     `free_requires_traversal`, only if a line of sight crossed that tetrahedron; else kUnknown);
-//  3. a voxel whose centre lies in an inside-labelled finite tetrahedron is kOccupied;
+//  3. a voxel whose centre lies in an inside-labelled finite tetrahedron is kOccupied (with
+//     `occupy_inside_cells` off it stays as it is: a map of a partly seen scene, where the graph
+//     cut labels unexplored space inside, keeps only its surfaces, rule 5);
 //  4. with `carve_lines_of_sight`, voxels still kUnknown that a line of sight crosses (camera to
 //     one voxel short of the point, 3D DDA) become kFree: this is the observed free space outside
 //     the convex hull of the points, e.g. between the cameras and an object seen from around it.
@@ -33,6 +35,7 @@ namespace mav::mapping {
 
 struct MeshToGridOptions {
   bool free_requires_traversal = false;
+  bool occupy_inside_cells = true;  // rule 3
   bool carve_lines_of_sight = true;
   // Rule 5 on/off. Off by default: it keeps structures thinner than a voxel but thickens every
   // surface by up to one voxel, which cost 0.04-0.06 MCC on the synthetic room (docs/mapping.md).

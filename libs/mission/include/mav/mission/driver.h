@@ -41,6 +41,7 @@ struct VehicleView {
   std::string localization_state;         // "ok", "lost", "down", ... (for the progress line)
   uint64_t poses_rejected = 0;            // by the estimator's gate, since the start
   int64_t collisions = 0;                 // contacts with the world so far (a simulator knows them)
+  uint64_t map_version = 0;               // changes whenever the planner's map changed
   std::optional<Eigen::Vector3d> p_true;  // ground truth, where a simulator gives it
 };
 

@@ -70,6 +70,23 @@ struct LocalizationOutage {
 // Where Plan() gets its obstacles.
 enum class MapSource {
   kGroundTruth,  // the preset world's exact occupancy at map_resolution_m
+  // Built during the flight from the VO's keyframes and poses (libs/mapping's sparse mesh),
+  // rebuilt every map_rebuild_s while keyframes come; unknown space counts as free for the
+  // planner (the mission re-checks its legs as the map fills in); the ground below the take-off
+  // is known from the start.
+  kOnline,
+};
+const char* MapSourceName(MapSource source);  // "truth", "online"
+std::optional<MapSource> ParseMapSource(std::string_view name);
+
+// The map against the world's exact occupancy (the collision-check protocol of
+// mav/mapping/collision_eval.h, over the volume the keyframes could observe).
+struct MapQuality {
+  double mcc = 0;
+  double missed_percent = 0;  // of the box positions: occupied in truth, free in the map
+  double false_percent = 0;
+  int64_t positions = 0;
+  bool observable_only = false;
 };
 
 struct LockstepOptions {
@@ -77,6 +94,9 @@ struct LockstepOptions {
   PoseSource pose_source = PoseSource::kVo;
   localization::Method vo_method = localization::Method::kSparseSubpixel;
   double vo_latency_s = 0.05;
+  // After a lost frame the VO restarts at the estimator's pose (false: it goes on from its own
+  // last pose, RigOdometry's default, which drops the motion over the lost frames).
+  bool reseed_after_loss = true;
   // The estimator's model of the VO pose noise.
   double vo_position_sigma_m = 0.01;
   double vo_orientation_sigma_rad = 0.005;
@@ -92,6 +112,13 @@ struct LockstepOptions {
   // radius 0.4 / 0.8 m, roadmap 20 000 / 60 000 milestones.
   MapSource map_source = MapSource::kGroundTruth;
   double map_resolution_m = 0;
+  double map_rebuild_s = 2.0;
+  // The online map's stereo points reach this far (their depth noise grows as Z^2: ~0.1 m at
+  // 3.5 m on the rig, ~0.5 m at 6 m, which would put phantom surfaces in the room's middle).
+  double map_max_depth_m = 3.5;
+  // Points meshed only when this many keyframes saw them (single-view mismatches make phantom
+  // surfaces in a map of a few keyframes).
+  int map_min_visibility = 2;
   double robot_radius_m = 0;
   uint64_t roadmap_milestones = 0;
   // Unset: the world's default (rooms: 1 m/s, 1 m/s^2; plant: 3 m/s, 2 m/s^2).
@@ -132,11 +159,15 @@ struct LockstepStats {
   uint64_t poses_rejected = 0;  // by its gate
   uint64_t plans = 0;
   uint64_t plans_failed = 0;
-  RuntimeStats render_ms;  // wall time per stereo pair
-  RuntimeStats vo_ms;      // wall time per VO frame
-  RuntimeStats plan_ms;    // wall time per Plan()
-  double path_m = 0;       // ground-truth path length flown
-  double setup_s = 0;      // map + roadmap (wall)
+  RuntimeStats render_ms;     // wall time per stereo pair
+  RuntimeStats vo_ms;         // wall time per VO frame
+  RuntimeStats plan_ms;       // wall time per Plan()
+  RuntimeStats map_build_ms;  // wall time per online map rebuild (mesh, planning map, roadmap)
+  int64_t keyframes = 0;      // inserted into the online map
+  uint64_t map_rebuilds = 0;
+  uint64_t map_errors = 0;  // keyframes or rebuilds that failed (the map stays as it was)
+  double path_m = 0;        // ground-truth path length flown
+  double setup_s = 0;       // map + roadmap (wall)
   int64_t collisions = 0;
   std::vector<std::string> collision_descriptions;
   std::string map_description;
@@ -170,6 +201,11 @@ class LockstepDriver final : public MissionDriver {
   const control::Autopilot& autopilot() const;
   const sim::World& world() const;
   const planning::PlanningMap& planning_map() const;
+  // The map the planner uses now (the online map with its ground prior, or the exact one) as an
+  // OctoMap file.
+  Status WriteMap(const std::string& path) const;
+  // That map against the world's exact occupancy.
+  Result<MapQuality> EvaluateMap() const;
   // The vehicle's camera mounting (the rig's body frame in the vehicle's body frame), looking
   // forward and pitched down by `pitch_down_rad`.
   static geometry::SE3 VehicleRigMount(double pitch_down_rad);

@@ -12,6 +12,8 @@
 //     re-planned from where the vehicle holds, a hover or take-off goes on;
 //   * older than land_after_s (3 s): the vehicle lands where it is ("fault landing"), the
 //     outcome is landed_on_fault.
+// When the driver's map changes during a leg (an online map filling in), the rest of the leg is
+// checked against it; if it is blocked the vehicle holds and the leg is planned again from there.
 // A leg that cannot be planned (a goal inside an obstacle, no path) aborts the mission with an
 // error naming the goal and its line in the file; the vehicle lands where it is. A collision
 // ends the mission at once (outcome collision). Decisions use the estimate only; the ground
@@ -61,6 +63,10 @@ struct MissionOptions {
   // minutes with the autopilot's smooth GoTo profile).
   control::GoToLimits approach_limits{1.0, 1.0, 0.5, 0.5};
   double approach_height_m = 0.5;
+  // A goal without its own yaw: false keeps the yaw of the take-off; true turns (in place, at
+  // takeoff_limits' yaw rate) to face the goal before each leg, so a forward camera sees the
+  // way (what an online map needs).
+  bool face_goals = false;
   // The take-off is done when the estimate is this close to the take-off point.
   double takeoff_tolerance_m = 0.1;
   // A goal counts as reached when its error (ground truth where known, else the estimate) at

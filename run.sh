@@ -13,9 +13,15 @@
 #   7. the closed loop through the services: mav-simulator flies the contest's t3_1 lock-stepped
 #      on the rotor speeds mav-control (the paper's controller) sends over DDS and prints the
 #      contest's score; then t4_3's first leg, planned by mav-planning and flown through
-#      mav-control, with the vehicle's end point and collisions.
+#      mav-control, with the vehicle's end point and collisions;
+#   8. a mission through the services on the vehicle's own eyes: missions/room_survey.yaml
+#      (7 goals around the room's obstacles, ~34 m) flown by mavctl mission run with
+#      mav-simulator rendering the stereo camera from the flown state, mav-localization's VO
+#      tracking it, mav-control's estimator on the VO's poses, mav-planning planning each leg;
+#      prints the mission's table and the path of its mission.png.
 # Environment: FRAMES (default 300), PRESET (room-easy), OUT (out/), MAV_SIM_PORT (50051),
-# MAV_PLANNING_PORT (50054), MAV_CONTROL_PORT (50055), FLIGHT_SEED (1).
+# MAV_LOCALIZATION_PORT (50052), MAV_PLANNING_PORT (50054), MAV_CONTROL_PORT (50055),
+# FLIGHT_SEED (1), MISSION (missions/room_survey.yaml).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 "$repo/deploy/setup.sh"
@@ -25,6 +31,7 @@ frames="${FRAMES:-300}"
 preset="${PRESET:-room-easy}"
 out="${OUT:-$repo/out}"
 port="${MAV_SIM_PORT:-50051}"
+loc_port="${MAV_LOCALIZATION_PORT:-50052}"
 plan_port="${MAV_PLANNING_PORT:-50054}"
 ctl_port="${MAV_CONTROL_PORT:-50055}"
 flight_seed="${FLIGHT_SEED:-1}"
@@ -35,7 +42,7 @@ export MAV_DDS_DOMAIN="${MAV_DDS_DOMAIN:-$(( ($$ % 200) + 1 ))}"
 
 step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
 
-step "1/7 rendering $frames frames of $preset into $data"
+step "1/8 rendering $frames frames of $preset into $data"
 if [[ -f "$data/ground_truth/scenario.yaml" ]]; then
   echo "(already there; delete $data to render again)"
 else
@@ -43,7 +50,7 @@ else
 fi
 "$bin/mav-sim" info "$data"
 
-step "2/7 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
+step "2/8 starting mav-simulator on 127.0.0.1:$port (DDS domain $MAV_DDS_DOMAIN)"
 "$bin/mav-simulator" --port "$port" > "$out/mav-simulator.log" 2>&1 &
 sim_pid=$!
 pids=("$sim_pid")
@@ -66,7 +73,7 @@ wait_serving "$port" "$sim_pid" "$out/mav-simulator.log"
 "$bin/mavctl" health --port "$port"
 "$bin/mavctl" sim load --euroc "$data" --port "$port"
 
-step "3/7 replaying in real time over DDS; mavctl listen reports what arrived"
+step "3/8 replaying in real time over DDS; mavctl listen reports what arrived"
 "$bin/mavctl" listen --topic all --frames "$frames" --timeout 60 &
 listen_pid=$!
 sleep 1  # let DDS discovery match the listener before the first frame
@@ -77,13 +84,13 @@ wait "$listen_pid" || listen_status=$?
 [[ $listen_status -eq 0 ]] || { echo "mavctl listen failed ($listen_status)" >&2; exit "$listen_status"; }
 
 cleanup  # the simulator's work is done; free the cores for the evaluation
-step "4/7 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
+step "4/8 localization: sparse (pixel, subpixel) and dense stereo VO against ground truth"
 "$bin/mav-eval" localization --data "$data" --json "$out/localization-$preset-$frames.json"
 
-step "5/7 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
+step "5/8 mapping: sparse multi-view meshing vs OctoMap + dense stereo, collision-check MCC"
 "$bin/mav-eval" mapping --data "$data" --json "$out/mapping-$preset-$frames.json"
 
-step "6/7 planning: the t4_3 legs on power_plant.bt through mav-planning"
+step "6/8 planning: the t4_3 legs on power_plant.bt through mav-planning"
 plant="$repo/maps/power_plant.bt"
 if [[ -f "$plant" ]]; then
   [[ -f "$out/power_plant.mavprm" ]] ||
@@ -98,7 +105,7 @@ else
   echo "(no $plant here: skipped)"
 fi
 
-step "7/7 closed loop: t3_1 and a t4_3 leg flown by mav-control (paper controller) on mav-simulator, lock-stepped over DDS"
+step "7/8 closed loop: t3_1 and a t4_3 leg flown by mav-control (paper controller) on mav-simulator, lock-stepped over DDS"
 "$bin/mav-simulator" --port "$port" > "$out/mav-simulator-flight.log" 2>&1 &
 pids+=("$!")
 wait_serving "$port" "$!" "$out/mav-simulator-flight.log"
@@ -134,3 +141,23 @@ if [[ -f "$plant" ]]; then
 fi
 cleanup
 
+step "8/8 a mission through the services: $(basename "${MISSION:-room_survey.yaml}") on the vehicle's own eyes (stereo VO)"
+"$bin/mav-simulator" --port "$port" > "$out/mav-simulator-mission.log" 2>&1 &
+pids+=("$!")
+wait_serving "$port" "$!" "$out/mav-simulator-mission.log"
+"$bin/mav-localization" --port "$loc_port" > "$out/mav-localization.log" 2>&1 &
+pids+=("$!")
+wait_serving "$loc_port" "$!" "$out/mav-localization.log"
+"$bin/mav-planning" --port "$plan_port" > "$out/mav-planning-mission.log" 2>&1 &
+pids+=("$!")
+wait_serving "$plan_port" "$!" "$out/mav-planning-mission.log"
+"$bin/mav-control" --port "$ctl_port" > "$out/mav-control-mission.log" 2>&1 &
+pids+=("$!")
+wait_serving "$ctl_port" "$!" "$out/mav-control-mission.log"
+"$bin/mavctl" mission run --mission "${MISSION:-$repo/missions/room_survey.yaml}" \
+  --seed "$flight_seed" --pose-source vo --out "$out/mission" --json "$out/mission.json" \
+  --simulator "127.0.0.1:$port" --localization "127.0.0.1:$loc_port" \
+  --planning "127.0.0.1:$plan_port" --control "127.0.0.1:$ctl_port"
+cleanup
+echo
+echo "mission.png: $out/mission/mission.png (the report: $out/mission.json)"

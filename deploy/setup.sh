@@ -53,9 +53,35 @@ fi
 [[ $do_build -eq 1 ]] || exit 0
 
 if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
-  log "configuring Release build in $build_dir"
-  cmake -S "$repo" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+  mkdir -p "$build_dir"
+  log "configuring Release build in $build_dir (the output: $build_dir/configure.log)"
+  if ! cmake -S "$repo" -B "$build_dir" -DCMAKE_BUILD_TYPE=Release > "$build_dir/configure.log" 2>&1; then
+    tail -40 "$build_dir/configure.log" >&2
+    echo "setup.sh: configuring failed (all of it in $build_dir/configure.log)" >&2
+    rm -f "$build_dir/CMakeCache.txt"
+    exit 1
+  fi
 fi
-log "building with $jobs jobs (incremental)"
-cmake --build "$build_dir" -j "$jobs"
-log "done: executables in $build_dir/bin"
+# One progress line (rewritten in place on a terminal) instead of CMake's hundreds; the full
+# output goes to build.log, named here and shown in part when the build fails.
+build_log="$build_dir/build.log"
+log "building with $jobs jobs (incremental; the full output: $build_log)"
+tty=0
+[[ -t 2 ]] && tty=1
+start=$(date +%s)
+set +e
+cmake --build "$build_dir" -j "$jobs" 2>&1 | tee "$build_log" |
+  awk -v tty="$tty" '
+    match($0, /^\[ *[0-9]+%\]/) {
+      pct = substr($0, RSTART + 1, RLENGTH - 2); gsub(/ /, "", pct)
+      if (tty) { printf "\r\033[K[setup] building %s %.60s", pct, substr($0, RLENGTH + 2) > "/dev/stderr" }
+    }
+    END { if (tty) printf "\r\033[K" > "/dev/stderr" }'
+status=${PIPESTATUS[0]}
+set -e
+if [[ $status -ne 0 ]]; then
+  echo "setup.sh: the build failed (exit $status); its errors (all of it in $build_log):" >&2
+  grep -E -A4 "error|Error " "$build_log" | head -60 >&2
+  exit "$status"
+fi
+log "built in $(( $(date +%s) - start )) s: executables in $build_dir/bin"

@@ -17,6 +17,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "clients/plot/plot.h"
 #include "commands.h"
 #include "json.h"
 #include "leg_planner.h"
@@ -27,7 +28,6 @@
 #include "mav/eval/flight_mission.h"
 #include "mav/sim/flight_task.h"
 #include "paper.h"
-#include "plot.h"
 
 namespace mav::eval_cli {
 namespace {
@@ -382,10 +382,10 @@ int RunControl(const std::vector<std::string>& args) {
       }
       if (task.kind == dataset::FlightTaskKind::kWaypoints ||
           task.kind == dataset::FlightTaskKind::kPlannedLegs) {
-        std::vector<PlotSeries> series;
+        std::vector<plot::PlotSeries> series;
         const int colours[2][3] = {{40, 160, 40}, {40, 40, 200}};
         for (size_t k = 0; k < recs.size(); ++k) {
-          PlotSeries s;
+          plot::PlotSeries s;
           s.label = recs[k]->controller;
           for (const auto& x : recs[k]->samples) s.positions.push_back(x.truth.p_world);
           s.b = colours[k % 2][0];
@@ -393,12 +393,12 @@ int RunControl(const std::vector<std::string>& args) {
           s.r = colours[k % 2][2];
           series.push_back(std::move(s));
         }
-        PlotSeries goals;
+        plot::PlotSeries goals;
         goals.label = "goals";
         for (const auto& g : task.goals) goals.positions.push_back(g.position);
         series.push_back(goals);
-        if (Status st = WriteTopViewPlot(out_dir + "/" + task.name + "_top.png",
-                                         task.name + " top view", series);
+        if (Status st = plot::WriteTopViewPlot(out_dir + "/" + task.name + "_top.png",
+                                               task.name + " top view", series);
             !st.ok()) {
           return Fail(st.message());
         }

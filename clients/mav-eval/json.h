@@ -9,13 +9,11 @@
 #include <vector>
 
 #include "mav/common/status.h"
+#include "mav/common/text.h"
 
 namespace mav::eval_cli {
 
-// A JSON string literal (quotes, backslashes and control characters escaped).
-std::string JsonQuote(const std::string& s);
-// A JSON number: integers exactly, others to 6 significant digits; null for NaN or infinity.
-std::string JsonNumber(double v);
+// JsonQuote and JsonNumber: mav/common/text.h.
 
 class JsonReport {
  public:

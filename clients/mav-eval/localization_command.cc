@@ -13,6 +13,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "clients/plot/plot.h"
 #include "commands.h"
 #include "json.h"
 #include "mav/camera/rectifier.h"
@@ -27,7 +28,6 @@
 #include "mav/localization/odometry.h"
 #include "mav/localization/rig_odometry.h"
 #include "paper.h"
-#include "plot.h"
 
 namespace mav::eval_cli {
 namespace {
@@ -275,7 +275,7 @@ int RunLocalization(const std::vector<std::string>& args) {
   rel_options.step = static_cast<int>(step);
   JsonReport json;
   std::vector<MethodMetrics> metrics;
-  std::vector<PlotSeries> plot;
+  std::vector<plot::PlotSeries> plot;
   std::vector<dataset::StampedPose> gt_at_frames;
   for (MethodRun& run : runs) {
     auto assoc = eval::AssociateByTime(run.T_world_body, gt);
@@ -334,7 +334,7 @@ int RunLocalization(const std::vector<std::string>& args) {
         gt_at_frames.push_back({assoc->t_ns[k], assoc->ground_truth[k]});
       }
     }
-    PlotSeries series{name, {}, 0, 0, 0};
+    plot::PlotSeries series{name, {}, 0, 0, 0};
     for (const auto& p : run.T_world_body) series.positions.push_back(p.T_world_body.Translation());
     static const int kColours[3][3] = {{40, 40, 220}, {40, 160, 40}, {200, 110, 20}};
     const int c = static_cast<int>(run.method);
@@ -343,7 +343,7 @@ int RunLocalization(const std::vector<std::string>& args) {
     series.r = kColours[c][2];
     plot.push_back(series);
   }
-  PlotSeries truth{"ground truth", {}, 0, 0, 0};
+  plot::PlotSeries truth{"ground truth", {}, 0, 0, 0};
   for (const auto& p : gt_at_frames) truth.positions.push_back(p.T_world_body.Translation());
   plot.insert(plot.begin(), truth);
 
@@ -365,7 +365,8 @@ int RunLocalization(const std::vector<std::string>& args) {
   }
 
   Status s = dataset::WriteTumTrajectory(out_dir + "/ground_truth.tum", gt_at_frames);
-  if (s.ok()) s = WriteTopViewPlot(out_dir + "/trajectories.png", "localization: " + preset, plot);
+  if (s.ok())
+    s = plot::WriteTopViewPlot(out_dir + "/trajectories.png", "localization: " + preset, plot);
   if (s.ok() && !json_path.empty()) s = json.WriteFile(json_path);
   if (!s.ok()) {
     std::cerr << "mav-eval localization: " << s.message() << "\n";

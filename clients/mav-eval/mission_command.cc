@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "clients/plot/mission_plot.h"
 #include "commands.h"
-#include "json.h"
 #include "mav/common/file.h"
 #include "mav/common/flags.h"
 #include "mav/common/parse.h"
@@ -26,65 +26,16 @@
 #include "mav/localization/odometry.h"
 #include "mav/mission/lockstep_driver.h"
 #include "mav/mission/mission.h"
-#include "plot.h"
+#include "mav/mission/report.h"
 
 namespace mav::eval_cli {
 namespace {
 
 constexpr const char* kCommand = "mav-eval mission";
-// Hovers at least this long get their t3_1 figures in the table (5 s settling + the window).
-constexpr double kHoverScoredS = 15;
 
 int Fail(const std::string& message, int code = 1) {
   std::cerr << kCommand << ": " << message << "\n";
   return code;
-}
-
-Status WriteTrajectoryCsv(const std::string& path,
-                          const std::vector<mission::FlightSample>& record) {
-  std::ostringstream out;
-  out << "t,gt_x,gt_y,gt_z,est_x,est_y,est_z,gt_qw,gt_qx,gt_qy,gt_qz,est_qw,est_qx,est_qy,est_qz,"
-         "armed\n";
-  char line[400];
-  for (const mission::FlightSample& s : record) {
-    std::snprintf(line, sizeof(line),
-                  "%.3f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d\n",
-                  s.t_s, s.p_true.x(), s.p_true.y(), s.p_true.z(), s.p_est.x(), s.p_est.y(),
-                  s.p_est.z(), s.q_true.w(), s.q_true.x(), s.q_true.y(), s.q_true.z(), s.q_est.w(),
-                  s.q_est.x(), s.q_est.y(), s.q_est.z(), s.armed ? 1 : 0);
-    out << line;
-  }
-  return WriteStringToFileAtomic(path, out.str());
-}
-
-Status WritePlot(const std::string& path, const dataset::MissionSpec& spec,
-                 const mission::MissionReport& report, const mission::LockstepDriver& driver) {
-  std::vector<PlotSeries> series;
-  PlotSeries truth{"flown (ground truth)", {}, 40, 40, 40};
-  PlotSeries estimate{"estimate", {}, 200, 120, 0};
-  for (const mission::FlightSample& s : driver.record()) {
-    truth.positions.push_back(s.p_true);
-    estimate.positions.push_back(s.p_est);
-  }
-  for (size_t i = 0; i < report.legs.size(); ++i) {
-    PlotSeries leg{i == 0 ? "plans" : "", report.legs[i].path, 0, 170, 240};
-    series.push_back(std::move(leg));
-  }
-  series.push_back(std::move(truth));
-  series.push_back(std::move(estimate));
-  PlotSeries reached{"goals reached", {}, 40, 170, 40, true};
-  PlotSeries missed{"goals missed", {}, 30, 30, 220, true};
-  for (const mission::GoalReport& g : report.goals) {
-    (g.reached ? reached : missed).positions.push_back(g.goal);
-  }
-  if (!reached.positions.empty()) series.push_back(std::move(reached));
-  if (!missed.positions.empty()) series.push_back(std::move(missed));
-  // Obstacles up to the highest point flown over (a room's ceiling would hide the rest).
-  double z_top = spec.start.z() + spec.altitude_m;
-  for (const dataset::MissionGoal& g : spec.goals) z_top = std::max(z_top, g.position.z());
-  const TopViewHeightMap height =
-      HeightMapOf(driver.planning_map(), spec.start.z() + 0.01, z_top + 0.5);
-  return WriteTopViewPlot(path, spec.world + " mission (obstacles by height)", series, &height);
 }
 
 // The command line.
@@ -100,15 +51,15 @@ struct Flags {
 // The driver's options from the flags; InvalidArgument naming the flag.
 Result<mission::LockstepOptions> DriverOptions(const Flags& f) {
   mission::LockstepOptions options;
-  options.seed = f.seed;
-  options.vo_latency_s = f.vo_latency_s;
-  options.camera_pitch_rad = f.camera_pitch_deg * M_PI / 180;
+  options.vehicle.seed = f.seed;
+  options.vehicle.vo_latency_s = f.vo_latency_s;
+  options.vehicle.camera_pitch_rad = f.camera_pitch_deg * M_PI / 180;
   const std::optional<mission::PoseSource> source = mission::ParsePoseSource(f.pose_source);
   if (!source) {
     return Status::InvalidArgument("--pose-source: " + QuoteForError(f.pose_source) +
                                    " is not one of vo, contest, truth");
   }
-  options.pose_source = *source;
+  options.vehicle.pose_source = *source;
   const std::optional<mission::MapSource> map = mission::ParseMapSource(f.map);
   if (!map) {
     return Status::InvalidArgument("--map: " + QuoteForError(f.map) +
@@ -121,14 +72,12 @@ Result<mission::LockstepOptions> DriverOptions(const Flags& f) {
                                    " is not one of sparse-pixel, sparse-subpixel, dense");
   }
   options.vo_method = *method;
-  if (f.controller == "paper") {
-    options.controller = control::ControllerType::kPaper;
-  } else if (f.controller == "lee") {
-    options.controller = control::ControllerType::kLee;
-  } else {
+  const std::optional<control::ControllerType> controller = mission::ParseController(f.controller);
+  if (!controller) {
     return Status::InvalidArgument("--controller: " + QuoteForError(f.controller) +
                                    " is not one of paper, lee");
   }
+  options.vehicle.controller = *controller;
   if (!f.outage.empty()) {
     const std::vector<std::string_view> parts = SplitFields(f.outage, ',');
     mission::LocalizationOutage outage;
@@ -146,136 +95,8 @@ Result<mission::LockstepOptions> DriverOptions(const Flags& f) {
     }
     options.outages.push_back(outage);
   }
-  if (f.max_speed > 0) {
-    planning::SpeedLimits limits;
-    limits.max_speed_mps = f.max_speed;
-    limits.max_acceleration_mps2 = std::min(2.0, f.max_speed);
-    limits.max_lateral_acceleration_mps2 = std::min(2.0, f.max_speed);
-    limits.max_jerk_mps3 = 5.0;
-    options.limits = limits;
-  }
+  if (f.max_speed > 0) options.planning.limits = mission::SpeedLimitsForMaxSpeed(f.max_speed);
   return options;
-}
-
-// One flown mission and its figures.
-struct Flown {
-  dataset::MissionSpec spec;
-  mission::MissionReport report;
-  mission::LockstepStats stats;
-  control::AutopilotStatus autopilot;
-  std::vector<eval::WindowRms> hover;              // per goal: the t3_1 figures of its hover
-  std::optional<mission::MapQuality> map_quality;  // the final map against the exact world
-  double ate_m = 0;
-  double wall_s = 0;
-};
-
-void PrintTable(const Flags& f, const Flown& r) {
-  const mission::MissionReport& report = r.report;
-  const mission::LockstepStats& stats = r.stats;
-  std::printf("mission %s (%s, seed %llu, pose source %s, %s)\n", f.mission_path.c_str(),
-              r.spec.world.c_str(), static_cast<unsigned long long>(f.seed), f.pose_source.c_str(),
-              f.controller.c_str());
-  std::printf("  outcome            %s%s%s\n", mission::MissionOutcomeName(report.outcome),
-              report.error.empty() ? "" : ": ", report.error.c_str());
-  int reached = 0;
-  for (size_t i = 0; i < report.goals.size(); ++i) {
-    const mission::GoalReport& g = report.goals[i];
-    reached += g.reached;
-    std::printf("  goal %zu (line %d)    %s  error %.3f m (estimate %.3f m)\n", i + 1, g.line,
-                g.reached ? "reached" : (g.visited ? "MISSED " : "not visited"), g.error_m,
-                g.estimate_error_m);
-    if (r.hover[i].samples > 0 && g.reached_at_s - g.hover_start_s >= kHoverScoredS) {
-      std::printf("    hover from +5 s:  position RMS %.4f m, angular-rate RMS %.4f rad/s\n",
-                  r.hover[i].position_rms_m, r.hover[i].angular_rate_rms_radps);
-    }
-  }
-  std::printf("  goals reached      %d of %zu\n", reached, report.goals.size());
-  std::printf("  collisions         %lld\n", static_cast<long long>(stats.collisions));
-  for (const std::string& c : stats.collision_descriptions) std::printf("    %s\n", c.c_str());
-  std::printf("  ATE (no alignment) %.4f m\n", r.ate_m);
-  std::printf("  path flown         %.1f m in %.1f s simulated, %.1f s wall (x%.2f real time)\n",
-              stats.path_m, report.sim_time_s, r.wall_s, report.sim_time_s / r.wall_s);
-  std::printf(
-      "  localization       %llu frames: %llu tracked, %llu lost, %llu skipped; VO %.1f ms "
-      "mean, render %.1f ms mean\n",
-      static_cast<unsigned long long>(stats.frames),
-      static_cast<unsigned long long>(stats.vo_tracked),
-      static_cast<unsigned long long>(stats.vo_lost),
-      static_cast<unsigned long long>(stats.vo_skipped), stats.vo_ms.mean_ms,
-      stats.render_ms.mean_ms);
-  std::printf("  estimator          %llu poses merged, %llu rejected by the gate\n",
-              static_cast<unsigned long long>(r.autopilot.poses),
-              static_cast<unsigned long long>(stats.poses_rejected));
-  std::printf("  planning           %d plans, %d replans (%.0f ms mean) on the %s\n", report.plans,
-              report.replans, stats.plan_ms.mean_ms, stats.map_description.c_str());
-  if (stats.map_rebuilds > 0) {
-    std::printf("  online map         %lld keyframes, %llu rebuilds (%.0f ms mean), %llu errors\n",
-                static_cast<long long>(stats.keyframes),
-                static_cast<unsigned long long>(stats.map_rebuilds), stats.map_build_ms.mean_ms,
-                static_cast<unsigned long long>(stats.map_errors));
-  }
-  if (r.map_quality) {
-    std::printf("  final map          MCC %.3f, missed collisions %.2f %%, false %.2f %% (%s)\n",
-                r.map_quality->mcc, r.map_quality->missed_percent, r.map_quality->false_percent,
-                r.map_quality->observable_only ? "observable volume" : "whole world");
-  }
-  std::printf("  holds              %d\n", report.holds);
-}
-
-std::string ReportJson(const Flags& f, const Flown& r) {
-  const mission::MissionReport& report = r.report;
-  const mission::LockstepStats& stats = r.stats;
-  std::ostringstream j;
-  j << "{\n  \"mission\": " << JsonQuote(f.mission_path)
-    << ",\n  \"world\": " << JsonQuote(r.spec.world) << ",\n  \"seed\": " << f.seed
-    << ",\n  \"pose_source\": " << JsonQuote(f.pose_source)
-    << ",\n  \"controller\": " << JsonQuote(f.controller)
-    << ",\n  \"outcome\": " << JsonQuote(mission::MissionOutcomeName(report.outcome))
-    << ",\n  \"error\": " << JsonQuote(report.error) << ",\n  \"collisions\": " << stats.collisions
-    << ",\n  \"goals\": [";
-  for (size_t i = 0; i < report.goals.size(); ++i) {
-    const mission::GoalReport& g = report.goals[i];
-    j << (i ? ",\n" : "\n") << "    {\"reached\": " << (g.reached ? "true" : "false")
-      << ", \"error_m\": " << JsonNumber(g.visited ? g.error_m : NAN)
-      << ", \"estimate_error_m\": " << JsonNumber(g.visited ? g.estimate_error_m : NAN)
-      << ", \"line\": " << g.line << ", \"t_s\": " << JsonNumber(g.reached_at_s);
-    if (r.hover[i].samples > 0) {
-      j << ", \"hover_position_rms_m\": " << JsonNumber(r.hover[i].position_rms_m)
-        << ", \"hover_rate_rms_radps\": " << JsonNumber(r.hover[i].angular_rate_rms_radps);
-    }
-    j << "}";
-  }
-  j << "\n  ],\n  \"ate_m\": " << JsonNumber(r.ate_m)
-    << ",\n  \"path_m\": " << JsonNumber(stats.path_m)
-    << ",\n  \"sim_time_s\": " << JsonNumber(report.sim_time_s)
-    << ",\n  \"wall_time_s\": " << JsonNumber(r.wall_s)
-    << ",\n  \"real_time_factor\": " << JsonNumber(report.sim_time_s / r.wall_s)
-    << ",\n  \"holds\": " << report.holds << ",\n  \"localization\": {\"frames\": " << stats.frames
-    << ", \"tracked\": " << stats.vo_tracked << ", \"lost\": " << stats.vo_lost
-    << ", \"skipped\": " << stats.vo_skipped
-    << ", \"vo_ms_mean\": " << JsonNumber(stats.vo_ms.mean_ms)
-    << ", \"vo_ms_p95\": " << JsonNumber(stats.vo_ms.p95_ms)
-    << ", \"render_ms_mean\": " << JsonNumber(stats.render_ms.mean_ms)
-    << "},\n  \"estimator\": {\"poses_merged\": " << r.autopilot.poses
-    << ", \"poses_rejected\": " << stats.poses_rejected
-    << "},\n  \"mapping\": {\"map\": " << JsonQuote(stats.map_description)
-    << ", \"keyframes\": " << stats.keyframes << ", \"rebuilds\": " << stats.map_rebuilds
-    << ", \"build_ms_mean\": " << JsonNumber(stats.map_build_ms.mean_ms)
-    << ", \"errors\": " << stats.map_errors;
-  if (r.map_quality) {
-    j << ", \"mcc\": " << JsonNumber(r.map_quality->mcc)
-      << ", \"missed_percent\": " << JsonNumber(r.map_quality->missed_percent)
-      << ", \"false_percent\": " << JsonNumber(r.map_quality->false_percent);
-  }
-  j << "},\n  \"planning\": {\"plans\": " << report.plans << ", \"replans\": " << report.replans
-    << ", \"plan_ms_mean\": " << JsonNumber(stats.plan_ms.mean_ms)
-    << "},\n  \"setup_s\": " << JsonNumber(stats.setup_s) << ",\n  \"events\": [";
-  for (size_t i = 0; i < report.events.size(); ++i) {
-    j << (i ? ",\n" : "\n") << "    {\"t_s\": " << JsonNumber(report.events[i].t_s)
-      << ", \"what\": " << JsonQuote(report.events[i].what) << "}";
-  }
-  j << "\n  ]\n}\n";
-  return j.str();
 }
 
 // The command's flags, bound to *f.
@@ -337,67 +158,67 @@ int RunMission(const std::vector<std::string>& args) {
   Result<mission::LockstepOptions> options = DriverOptions(f);
   if (!options.ok()) return Fail(options.status().message(), 2);
 
-  Flown r;
   Result<dataset::MissionSpec> spec = dataset::ReadMissionFile(f.mission_path);
   if (!spec.ok()) return Fail(spec.status().message() + " (no take-off)");
-  r.spec = *std::move(spec);
-  if (!f.world.empty()) r.spec.world = f.world;
+  if (!f.world.empty()) spec->world = f.world;
   mission::MissionOptions mission_options;
   mission_options.timeout_s = f.timeout_s;
   mission_options.face_goals = f.face_goals || f.map == "online";
-  if (r.spec.world == "plant") mission_options.goal_tolerance_m = 0.5;
+  if (spec->world == "plant") mission_options.goal_tolerance_m = 0.5;
 
   const auto wall_start = std::chrono::steady_clock::now();
   std::fprintf(stderr, "%s: %s in %s, seed %llu, pose source %s: building the world and map\n",
-               kCommand, f.mission_path.c_str(), r.spec.world.c_str(),
+               kCommand, f.mission_path.c_str(), spec->world.c_str(),
                static_cast<unsigned long long>(f.seed), f.pose_source.c_str());
   Result<std::unique_ptr<mission::LockstepDriver>> driver =
-      mission::LockstepDriver::Create(r.spec, *options);
+      mission::LockstepDriver::Create(*spec, *options);
   if (!driver.ok()) return Fail(driver.status().ToString() + " (no take-off)");
-  const bool tty = isatty(STDERR_FILENO) != 0;
-  double next_line_s = 0;
-  auto progress = [&](const mission::MissionProgress& p) {
-    if (f.quiet || p.t_s < next_line_s) return;
-    next_line_s = p.t_s + (tty ? 0.5 : 5.0);
-    const mission::VehicleView& v = *p.vehicle;
-    std::fprintf(stderr, "%st=%6.1f s  %-13s goal %d/%d  speed %.2f m/s  pose %s (age %.2f s)%s",
-                 tty ? "\r" : "", p.t_s, mission::MissionPhaseName(p.phase), p.goal + 1, p.goals,
-                 v.v_est.norm(), v.localization_state.c_str(),
-                 std::isfinite(v.pose_age_s) ? v.pose_age_s : -1.0, tty ? "   " : "\n");
-  };
   Result<mission::MissionReport> report =
-      mission::RunMission(r.spec, mission_options, **driver, progress);
-  if (tty && !f.quiet) std::fprintf(stderr, "\n");
+      mission::RunMission(*spec, mission_options, **driver, mission::ProgressLinePrinter(f.quiet));
   if (!report.ok()) return Fail(report.status().ToString());
-  r.report = *std::move(report);
-  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  r.stats = (*driver)->stats();
-  r.autopilot = (*driver)->autopilot().status();
-  r.ate_m = mission::EstimateRmsError((*driver)->record());
-  for (const mission::GoalReport& g : r.report.goals) {
-    r.hover.push_back(mission::ScoreHover((*driver)->record(), g));
-  }
+
+  const std::vector<mission::FlightSample>& record = (*driver)->record();
+  mission::MissionFigures r = mission::FiguresOf(
+      f.mission_path, spec->world, f.pose_source, f.controller, "in-process", f.seed,
+      *std::move(report),
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count(), record);
+  const mission::LockstepStats stats = (*driver)->stats();
+  r.path_m = stats.path_m;
+  r.setup_s = stats.setup_s;
+  r.collisions = stats.collisions;
+  r.collision_descriptions = stats.collision_descriptions;
+  r.frames = stats.frames;
+  r.vo_tracked = stats.vo_tracked;
+  r.vo_lost = stats.vo_lost;
+  r.vo_skipped = stats.vo_skipped;
+  r.vo_ms = stats.vo_ms;
+  r.render_ms = stats.render_ms;
+  r.poses_merged = (*driver)->autopilot().status().poses;
+  r.poses_rejected = stats.poses_rejected;
+  r.map_description = stats.map_description;
+  r.keyframes = stats.keyframes;
+  r.map_rebuilds = stats.map_rebuilds;
+  r.map_errors = stats.map_errors;
+  r.map_build_ms = stats.map_build_ms;
+  r.plan_ms = stats.plan_ms;
   if (options->map_source == mission::MapSource::kOnline) {
     Result<mission::MapQuality> quality = (*driver)->EvaluateMap();
     if (!quality.ok()) return Fail("evaluating the final map: " + quality.status().ToString());
     r.map_quality = *quality;
   }
-  PrintTable(f, r);
+  std::fputs(mission::MissionTable(r).c_str(), stdout);
 
   if (!f.out_dir.empty()) {
-    if (Status s = MakeDirectories(f.out_dir); !s.ok()) return Fail(s.message());
-    if (Status s = WriteTrajectoryCsv(f.out_dir + "/trajectory.csv", (*driver)->record());
+    if (Status s = plot::WriteMissionFiles(
+            f.out_dir, *spec, r.report, record, (*driver)->planning_map(),
+            [&](const std::string& path) { return (*driver)->WriteMap(path); });
         !s.ok()) {
       return Fail(s.message());
     }
-    if (Status s = WritePlot(f.out_dir + "/mission.png", r.spec, r.report, **driver); !s.ok()) {
-      return Fail(s.message());
-    }
-    if (Status s = (*driver)->WriteMap(f.out_dir + "/map.bt"); !s.ok()) return Fail(s.message());
     std::printf("  wrote              %s/trajectory.csv, mission.png, map.bt\n", f.out_dir.c_str());
   }
   if (!f.json_path.empty()) {
-    if (Status s = WriteStringToFileAtomic(f.json_path, ReportJson(f, r)); !s.ok()) {
+    if (Status s = WriteStringToFileAtomic(f.json_path, mission::MissionJson(r)); !s.ok()) {
       return Fail(s.message());
     }
   }

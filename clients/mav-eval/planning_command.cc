@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "clients/plot/plot.h"
 #include "commands.h"
 #include "json.h"
 #include "mav/common/file.h"
@@ -24,7 +25,6 @@
 #include "mav/planning/planning_map.h"
 #include "mav/planning/reference_path.h"
 #include "paper.h"
-#include "plot.h"
 
 namespace mav::eval_cli {
 namespace {
@@ -406,7 +406,7 @@ int RunPlanning(const std::vector<std::string>& args) {
 
   if (!out_dir.empty()) {
     static const int kColours[3][3] = {{0, 0, 220}, {0, 150, 0}, {200, 100, 0}};
-    std::vector<PlotSeries> series;
+    std::vector<plot::PlotSeries> series;
     for (size_t k = 0; k < methods.size(); ++k) {
       const std::string dir = out_dir + "/" + methods[k];
       if (Status s = MakeDirectories(dir); !s.ok()) return Fail(s.message());
@@ -418,7 +418,7 @@ int RunPlanning(const std::vector<std::string>& args) {
             !s.ok()) {
           return Fail(s.message());
         }
-        PlotSeries line;
+        plot::PlotSeries line;
         line.label = labelled ? "" : methods[k];
         labelled = true;
         for (const geometry::TrajectoryPoint& p : r.trajectory.Sample(0.05)) {
@@ -430,10 +430,10 @@ int RunPlanning(const std::vector<std::string>& args) {
         series.push_back(std::move(line));
       }
     }
-    const TopViewHeightMap height = HeightMapOf(map);
-    if (Status s =
-            WriteTopViewPlot(out_dir + "/top_view.png",
-                             "planning on " + map_path + " (obstacles by height)", series, &height);
+    const plot::TopViewHeightMap height = plot::HeightMapOf(map);
+    if (Status s = plot::WriteTopViewPlot(out_dir + "/top_view.png",
+                                          "planning on " + map_path + " (obstacles by height)",
+                                          series, &height);
         !s.ok()) {
       return Fail(s.message());
     }

@@ -9,6 +9,7 @@
 //   mavctl sim flight load|run|pause|status   (the simulator's flight mode)
 //   mavctl ctl configure|arm|disarm|hover|trajectory|gains|state|status   (mav-control)
 //   mavctl plan load|roadmap|path|legs|get|sample|status   (mav-planning)
+//   mavctl mission run --mission FILE ...   (a mission through the services, mission_commands.h)
 //
 // Every RPC has a deadline (--timeout, default 10 s). Exit status: 0 success, 1 the call failed
 // (message on stderr names the address and the status), 2 usage error.
@@ -33,6 +34,7 @@
 #include "clients/mavctl/listen.h"
 #include "clients/mavctl/localization_commands.h"
 #include "clients/mavctl/mapping_commands.h"
+#include "clients/mavctl/mission_commands.h"
 #include "clients/mavctl/plan_commands.h"
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
@@ -66,6 +68,9 @@ constexpr char kUsage[] =
     "  sim flight load|run|pause|status  (mavctl sim flight --help; the flight mode)\n"
     "  ctl configure|arm|disarm|hover|trajectory|gains|state|status  (mavctl ctl --help; 50055)\n"
     "  plan load|roadmap|path|legs|get|sample|status  (mavctl plan --help; port 50054)\n"
+    "  mission run --mission FILE [--seed S] [--pose-source vo|contest|truth] [--out DIR]\n"
+    "              [--json FILE]   (a mission through all the services; mavctl mission run "
+    "--help)\n"
     "Common flags of sim/health: --address A (127.0.0.1), --port P (50051, env\n"
     "MAV_SIMULATOR_PORT), --timeout S (RPC deadline, 10 s).\n";
 
@@ -375,6 +380,7 @@ int Run(int argc, char** argv) {
   if (command == "map") return mav::mavctl::MappingCommand(args);
   if (command == "ctl") return mav::mavctl::ControlCommand(args);
   if (command == "plan") return mav::mavctl::PlanCommand(args);
+  if (command == "mission") return mav::mavctl::MissionCommand(args);
   std::cerr << "mavctl: unknown command '" << command << "'\n" << kUsage;
   return 2;
 }

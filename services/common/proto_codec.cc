@@ -58,8 +58,10 @@ Result<geometry::SE3> PoseFromProto(const v1::Pose& pose, const std::string& fie
     return Status::InvalidArgument(field + ".orientation: norm " + Number(norm) +
                                    ", expected a unit quaternion (w first)");
   }
-  const Eigen::Quaterniond rotation(q.w() / norm, q.x() / norm, q.y() / norm, q.z() / norm);
-  return geometry::SE3(rotation, Eigen::Vector3d(p.x(), p.y(), p.z()));
+  // SE3 normalizes a quaternion only when it is not unit to rounding: a unit one passes bit for
+  // bit (a pose through the services is the pose sent).
+  return geometry::SE3(Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()),
+                       Eigen::Vector3d(p.x(), p.y(), p.z()));
 }
 
 Result<camera::PinholeRadTan> CameraFromProto(const v1::CameraCalibration& camera,

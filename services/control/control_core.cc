@@ -38,6 +38,23 @@ bool ControlConfig::IsValid(std::string* why) const {
       }
     }
   }
+  if (!lockstep_poses.empty() && lockstep_poses.size() != pose_frames.size()) {
+    return fail("estimator.pose_sources: " + std::to_string(lockstep_poses.size()) +
+                " lock-step settings for " + std::to_string(pose_frames.size()) + " sources");
+  }
+  for (size_t i = 0; i < lockstep_poses.size(); ++i) {
+    const std::string field = "estimator.pose_sources[" + std::to_string(i) + "].lockstep_";
+    const LockstepPoseOptions& l = lockstep_poses[i];
+    if (l.latency_s == 0) continue;
+    if (!(l.latency_s >= 0.001 && l.latency_s <= 1)) {
+      return fail(field + "latency_s: must be 0 (off) or in [0.001, 1] s, got " +
+                  std::to_string(l.latency_s));
+    }
+    if (!(l.wait_s > 0 && l.wait_s <= 60)) {
+      return fail(field + "wait_s: must be in (0, 60] s, got " + std::to_string(l.wait_s));
+    }
+    if (!lockstep) return fail(field + "latency_s: needs lockstep (a lock-stepped simulator)");
+  }
   return autopilot.IsValid(why);
 }
 
@@ -87,6 +104,17 @@ Status ControlCore::Configure(const ControlConfig& config, const Termination& de
   last_pose_delay_ns_ = 0;
   pending_pose_t_ns_ = -1;
   imu_rejected_ = imu_repeated_ = poses_rejected_ = commands_ = 0;
+  lockstep_.assign(config.pose_frames.size(), LockstepSource());
+  for (size_t i = 0; i < config.lockstep_poses.size(); ++i) {
+    const LockstepPoseOptions& l = config.lockstep_poses[i];
+    if (l.latency_s == 0) continue;
+    LockstepSource& s = lockstep_[i];
+    s.enabled = true;
+    s.latency_ns = SecondsToNs(l.latency_s);
+    s.period_ns = PeriodNs(config.autopilot.estimator.sources[i].rate_hz);
+    s.wait_ns = SecondsToNs(l.wait_s);
+  }
+  lockstep_frames_missed_ = 0;
   imu_rate_ = RateMeter();
   pose_rate_ = RateMeter();
   loop_ms_.Clear();
@@ -136,6 +164,7 @@ void ControlCore::OnImu(const control::ImuMeasurement& imu) {
                   std::to_string(last_imu_t_ns_);
     return;
   }
+  ReleaseHeldLocked(imu.t_ns);
   last_command_ = autopilot_->FeedImu(imu);
   last_armed_ = autopilot_->armed();
   if (pending_pose_t_ns_ >= 0) {
@@ -166,9 +195,105 @@ void ControlCore::OnPose(const std::string& frame_id, int64_t t_ns,
   pose.t_ns = t_ns;
   pose.source = static_cast<int>(it - frames.begin());
   pose.T_world_sensor = T_world_sensor;
+  if (LockstepSource& l = lockstep_[static_cast<size_t>(pose.source)]; l.enabled) {
+    // Held until the IMU's time reaches its stamp + latency (ReleaseHeldLocked).
+    l.answered_ns = std::max(l.answered_ns, t_ns);
+    l.silent = false;
+    if (l.held.size() >= kMaxHeldPoses) {
+      l.held.erase(l.held.begin());
+      ++poses_rejected_;
+      last_error_ = "pose: " + frame_id + ": more than " + std::to_string(kMaxHeldPoses) +
+                    " lock-step poses waiting; the oldest was dropped";
+    }
+    auto at = std::upper_bound(l.held.begin(), l.held.end(), t_ns,
+                               [](int64_t t, const Held& h) { return t < h.t_ns; });
+    l.held.insert(at, Held{t_ns, T_world_sensor});
+    return;
+  }
   // Refusals (too old, before the first IMU) are counted by the autopilot (poses_dropped).
   if (autopilot_->FeedPose(pose).ok()) pending_pose_t_ns_ = t_ns;
   pose_rate_.Add(MonotonicNowNs());
+}
+
+void ControlCore::OnPoseAnswer(const std::string& frame_id, int64_t t_ns, const std::string& why) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++poses_rejected_;
+  last_error_ = "pose: " + why;
+  if (!autopilot_.has_value()) return;
+  const std::vector<std::string>& frames = config_->pose_frames;
+  const auto it = std::find(frames.begin(), frames.end(), frame_id);
+  if (it == frames.end()) return;
+  LockstepSource& l = lockstep_[static_cast<size_t>(it - frames.begin())];
+  if (!l.enabled) return;
+  l.answered_ns = std::max(l.answered_ns, t_ns);
+  l.silent = false;
+}
+
+std::optional<int64_t> ControlCore::DueUnanswered(const LockstepSource& s, int64_t imu_t_ns) {
+  if (!s.enabled || s.silent) return std::nullopt;
+  // Frames are stamped at multiples of the period; the first awaited is the first at or after
+  // the first IMU sample (set then; before it, this one).
+  const int64_t first = s.first_frame_ns >= 0
+                            ? s.first_frame_ns
+                            : (imu_t_ns + s.period_ns - 1) / s.period_ns * s.period_ns;
+  const int64_t next =
+      std::max(first, s.answered_ns >= 0 ? (s.answered_ns / s.period_ns + 1) * s.period_ns : first);
+  if (next + s.latency_ns > imu_t_ns) return std::nullopt;
+  return next;
+}
+
+bool ControlCore::AwaitingPose(int64_t imu_t_ns) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!autopilot_.has_value()) return false;
+  for (const LockstepSource& s : lockstep_) {
+    if (DueUnanswered(s, imu_t_ns)) return true;
+  }
+  return false;
+}
+
+void ControlCore::GiveUpWaiting(int64_t imu_t_ns) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!autopilot_.has_value()) return;
+  for (size_t i = 0; i < lockstep_.size(); ++i) {
+    LockstepSource& s = lockstep_[i];
+    const std::optional<int64_t> due = DueUnanswered(s, imu_t_ns);
+    if (!due) continue;
+    s.silent = true;
+    ++lockstep_frames_missed_;
+    last_error_ = "lock-step: no answer from " + config_->pose_frames[i] + " for the frame at " +
+                  std::to_string(NsToSeconds(*due)) + " s within " +
+                  std::to_string(NsToSeconds(s.wait_ns)) +
+                  " s: flying on without it until it answers again";
+    MAV_LOG(kWarning) << last_error_;
+  }
+}
+
+int64_t ControlCore::LockstepWaitNs() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  int64_t wait = 0;
+  for (const LockstepSource& s : lockstep_) {
+    if (s.enabled) wait = std::max(wait, s.wait_ns);
+  }
+  return wait;
+}
+
+void ControlCore::ReleaseHeldLocked(int64_t imu_t_ns) {
+  for (size_t i = 0; i < lockstep_.size(); ++i) {
+    LockstepSource& s = lockstep_[i];
+    if (!s.enabled) continue;
+    if (s.first_frame_ns < 0) {
+      s.first_frame_ns = (imu_t_ns + s.period_ns - 1) / s.period_ns * s.period_ns;
+    }
+    size_t n = 0;
+    for (; n < s.held.size() && s.held[n].t_ns + s.latency_ns <= imu_t_ns; ++n) {
+      const control::PoseMeasurement pose{s.held[n].t_ns, static_cast<int>(i),
+                                          s.held[n].T_world_sensor};
+      // Refusals (too old, the gate) are counted by the autopilot.
+      if (autopilot_->FeedPose(pose).ok()) last_pose_delay_ns_ = imu_t_ns - pose.t_ns;
+      pose_rate_.Add(MonotonicNowNs());
+    }
+    s.held.erase(s.held.begin(), s.held.begin() + static_cast<std::ptrdiff_t>(n));
+  }
 }
 
 void ControlCore::RejectImu(const std::string& why) {
@@ -260,6 +385,8 @@ ControlCoreStatus ControlCore::GetStatus() const {
   s.poses_rejected = poses_rejected_;
   s.imu_rate_hz = imu_rate_.Rate(now_ns);
   s.pose_rate_hz = pose_rate_.Rate(now_ns);
+  s.lockstep_frames_missed = lockstep_frames_missed_;
+  for (const LockstepSource& l : lockstep_) s.lockstep_source_silent |= l.enabled && l.silent;
   s.loop_ms = loop_ms_.Summary();
   s.last_error = last_error_;
   return s;
@@ -274,6 +401,10 @@ ControlCoreState ControlCore::GetState() const {
   s.autopilot = autopilot_->state();
   s.last_pose_t_ns = autopilot_->estimator().counters().last_pose_t_ns;
   s.last_pose_delay_ms = static_cast<double>(last_pose_delay_ns_) * 1e-6;
+  s.estimator_initialized = autopilot_->estimator().initialized();
+  s.last_pose_arrival_ns = autopilot_->last_pose_arrival_ns();
+  s.poses_gated = autopilot_->estimator().counters().poses_rejected;
+  s.moving = autopilot_->moving();
   return s;
 }
 

@@ -28,7 +28,15 @@
 // (ControlConfig::lockstep) the wall-clock watchdog is off: a paused simulation is not a lost
 // IMU, and the simulator's own command timeout notices a controller that stopped answering.
 //
-// Memory: fixed (the autopilot's ring buffers and 1000-sample statistics windows).
+// Lock-step pose sources (ControlConfig::lockstep_poses, a localization service tracking a
+// lock-stepped simulator's camera): their poses are held and merged when the IMU's time reaches
+// stamp + latency, and the DDS read loop asks AwaitingPose before each IMU sample, draining the
+// pose reader until every frame due by then is answered (a pose or a LOST sample, OnPoseAnswer)
+// or the wait runs out (GiveUpWaiting: the source is silent until it answers again). The
+// estimate then depends on the simulated clock only, never on how fast the VO ran.
+//
+// Memory: fixed (the autopilot's ring buffers and 1000-sample statistics windows; at most
+// kMaxHeldPoses held lock-step poses per source).
 // Thread-safety: every public method may be called from any thread.
 
 #include <cstdint>
@@ -46,11 +54,20 @@
 
 namespace mav::control_service {
 
+// A pose source that answers every camera frame of a lock-stepped simulation
+// (ControlPoseSource.lockstep_latency_s).
+struct LockstepPoseOptions {
+  double latency_s = 0;  // 0: not lock-stepped (poses merged as they arrive); else [0.001, 1]
+  double wait_s = 2.0;   // wall clock per IMU sample, (0, 60]
+};
+
 struct ControlConfig {
   control::AutopilotOptions autopilot;
   // The child_frame_id of each pose source's poses (parallel to autopilot.estimator.sources):
   // non-empty and distinct; "pose_sensor<i>" for the simulator's flight mode.
   std::vector<std::string> pose_frames = {"pose_sensor0"};
+  // Parallel to pose_frames; empty = none lock-stepped. Needs `lockstep`.
+  std::vector<LockstepPoseOptions> lockstep_poses;
   // The IMU's clock is a lock-stepped simulator's: no wall-clock IMU watchdog.
   bool lockstep = false;
 
@@ -85,6 +102,8 @@ struct ControlCoreStatus {
   uint64_t poses_rejected = 0;
   double imu_rate_hz = 0;  // per wall second (lock-step: the stepping speed)
   double pose_rate_hz = 0;
+  uint64_t lockstep_frames_missed = 0;
+  bool lockstep_source_silent = false;
   RuntimeStats loop_ms;  // OnImu: sample in -> command written
   std::string last_error;
   uint32_t actuator_subscribers = 0;
@@ -97,6 +116,10 @@ struct ControlCoreState {
   int64_t last_pose_t_ns = 0;
   // The IMU time of the first sample after its arrival minus its stamp.
   double last_pose_delay_ms = 0;
+  bool estimator_initialized = false;
+  int64_t last_pose_arrival_ns = 0;  // the IMU time it was accepted at
+  uint64_t poses_gated = 0;
+  bool moving = false;
 };
 
 class ControlCore {
@@ -120,6 +143,16 @@ class ControlCore {
   // A pose T_world_sensor of the source whose frame is `frame_id`; an unknown frame is rejected
   // (counted, last_error).
   void OnPose(const std::string& frame_id, int64_t t_ns, const geometry::SE3& T_world_sensor);
+  // A lock-step source's answer for the frame stamped t_ns that carries no usable pose (LOST):
+  // the frame is answered (counted as rejected with `why`). Other sources: RejectPose.
+  void OnPoseAnswer(const std::string& frame_id, int64_t t_ns, const std::string& why);
+  // Whether a lock-step source (not silent) has not answered a frame due by the IMU time t_ns.
+  bool AwaitingPose(int64_t imu_t_ns) const;
+  // The wait for the frames due by imu_t_ns ran out: those sources are silent (logged, counted)
+  // until they answer again.
+  void GiveUpWaiting(int64_t imu_t_ns);
+  // The longest lock-step wait of the configured sources (0: none lock-stepped).
+  int64_t LockstepWaitNs() const;
   // A sample the transport could not use (malformed); counted with its reason.
   void RejectImu(const std::string& why);
   void RejectPose(const std::string& why);
@@ -150,6 +183,24 @@ class ControlCore {
     void Add(int64_t now_ns);
     double Rate(int64_t now_ns) const;
   };
+  // A lock-step source's state (parallel to the configured sources).
+  struct Held {
+    int64_t t_ns = 0;
+    geometry::SE3 T_world_sensor;
+  };
+  struct LockstepSource {
+    bool enabled = false;
+    int64_t latency_ns = 0, period_ns = 0, wait_ns = 0;
+    int64_t first_frame_ns = -1;  // the first frame awaited (set by the first IMU sample)
+    int64_t answered_ns = -1;     // the latest stamp answered
+    bool silent = false;
+    std::vector<Held> held;  // usable poses not merged yet, in stamp order
+  };
+  static constexpr size_t kMaxHeldPoses = 64;
+  // The stamp of the first frame of `s` due by imu_t_ns and not answered (nullopt: none).
+  static std::optional<int64_t> DueUnanswered(const LockstepSource& s, int64_t imu_t_ns);
+  // The held poses due by imu_t_ns go to the estimator (before the IMU sample).
+  void ReleaseHeldLocked(int64_t imu_t_ns);
   Status PublishLocked(int64_t t_ns, bool armed, const control::RotorVector& speeds);
   Status CheckConfiguredLocked() const;
 
@@ -168,6 +219,8 @@ class ControlCore {
   int64_t last_pose_delay_ns_ = 0;
   int64_t pending_pose_t_ns_ = -1;  // a merged pose whose delay the next IMU sample measures
   uint64_t imu_rejected_ = 0, imu_repeated_ = 0, poses_rejected_ = 0;
+  std::vector<LockstepSource> lockstep_;
+  uint64_t lockstep_frames_missed_ = 0;
   RateMeter imu_rate_, pose_rate_;
   RuntimeWindow loop_ms_{1000};
   std::string last_error_;

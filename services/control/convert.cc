@@ -148,7 +148,8 @@ Status VehicleFromProto(const v1::VehicleParameters& v, control::VehicleParamete
 }
 
 Status EstimatorFromProto(const v1::EstimatorConfig& e, control::EstimatorOptions* out,
-                          std::vector<std::string>* frames) {
+                          std::vector<std::string>* frames,
+                          std::vector<LockstepPoseOptions>* lockstep) {
   MAV_RETURN_IF_ERROR(Pick(e.imu_rate_hz(), "estimator.imu_rate_hz", &out->imu_rate_hz));
   if (out->imu_rate_hz < 10 || out->imu_rate_hz > 2000) {
     return Status::InvalidArgument("estimator.imu_rate_hz: must be in [10, 2000], got " +
@@ -178,6 +179,7 @@ Status EstimatorFromProto(const v1::EstimatorConfig& e, control::EstimatorOption
   }
   const int count = std::max(1, e.pose_sources_size());
   out->sources.assign(static_cast<size_t>(count), control::PoseSourceOptions());
+  lockstep->assign(static_cast<size_t>(count), LockstepPoseOptions());
   frames->clear();
   double max_delay_s = 0.1;
   for (int i = 0; i < count; ++i) {
@@ -202,6 +204,10 @@ Status EstimatorFromProto(const v1::EstimatorConfig& e, control::EstimatorOption
         MAV_ASSIGN_OR_RETURN(src.T_body_sensor,
                              PoseFromProto(p.t_body_sensor(), field + ".t_body_sensor"));
       }
+      LockstepPoseOptions& l = (*lockstep)[static_cast<size_t>(i)];
+      l.latency_s = p.lockstep_latency_s();
+      MAV_RETURN_IF_ERROR(Pick(p.lockstep_wait_s(), field + ".lockstep_wait_s", &l.wait_s));
+      if (!std::isfinite(l.latency_s)) return NotFinite(field + ".lockstep_latency_s");
     }
     max_delay_s = std::max(max_delay_s, delay_s);
     frames->push_back(frame);
@@ -213,6 +219,18 @@ Status EstimatorFromProto(const v1::EstimatorConfig& e, control::EstimatorOption
   out->couple_tilt = !e.decoupled_weights();
   out->transient_weights = !e.steady_state_weights_only();
   MAV_RETURN_IF_ERROR(Pick(e.converge_s(), "estimator.converge_s", &out->converge_s));
+  for (const auto& [value, name] : {std::pair<double, const char*>{e.pose_gate_m(), "pose_gate_m"},
+                                    {e.pose_gate_growth_mps(), "pose_gate_growth_mps"},
+                                    {e.pose_gate_rad(), "pose_gate_rad"}}) {
+    if (!(value >= 0) || !std::isfinite(value)) {
+      return Status::InvalidArgument(std::string("estimator.") + name +
+                                     ": must be >= 0 and finite, got " + Number(value));
+    }
+  }
+  out->pose_gate_m = e.pose_gate_m();
+  out->pose_gate_rad = e.pose_gate_rad();
+  MAV_RETURN_IF_ERROR(
+      Pick(e.pose_gate_growth_mps(), "estimator.pose_gate_growth_mps", &out->pose_gate_growth_mps));
   if (e.has_explicit_weights()) {
     const v1::DecoupledWeights& w = e.explicit_weights();
     for (const auto& [value, name] : {std::pair<double, const char*>{w.position(), "position"},
@@ -285,7 +303,8 @@ Result<ControlConfig> ConfigFromProto(const v1::ControlConfigureRequest& r) {
   ControlConfig config;
   control::AutopilotOptions& o = config.autopilot;
   MAV_RETURN_IF_ERROR(VehicleFromProto(r.vehicle(), &o.vehicle));
-  MAV_RETURN_IF_ERROR(EstimatorFromProto(r.estimator(), &o.estimator, &config.pose_frames));
+  MAV_RETURN_IF_ERROR(
+      EstimatorFromProto(r.estimator(), &o.estimator, &config.pose_frames, &config.lockstep_poses));
   MAV_ASSIGN_OR_RETURN(o.controller, ControllerFromProto(r.controller()));
   MAV_ASSIGN_OR_RETURN(o.paper_gains, PaperGainsFromProto(r.gains(), "gains"));
   MAV_ASSIGN_OR_RETURN(o.lee_gains, LeeGainsFromProto(r.lee_gains(), "lee_gains"));
@@ -338,7 +357,14 @@ void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out) {
     p->set_position_sigma_m(e.sources[i].position_sigma_m);
     p->set_orientation_sigma_rad(e.sources[i].orientation_sigma_rad);
     ToProto(e.sources[i].T_body_sensor, p->mutable_t_body_sensor());
+    if (i < config.lockstep_poses.size()) {
+      p->set_lockstep_latency_s(config.lockstep_poses[i].latency_s);
+      p->set_lockstep_wait_s(config.lockstep_poses[i].wait_s);
+    }
   }
+  pe->set_pose_gate_m(e.pose_gate_m);
+  pe->set_pose_gate_growth_mps(e.pose_gate_growth_mps);
+  pe->set_pose_gate_rad(e.pose_gate_rad);
   pe->set_accel_offset_random_walk(e.accel_offset_random_walk);
   pe->set_gyro_offset_random_walk(e.gyro_offset_random_walk);
   pe->set_fixed_offsets(!e.estimate_offsets);
@@ -543,6 +569,8 @@ void ToProto(const ControlCoreStatus& s, bool dds_input, v1::ControlStatus* out)
   out->set_commands(s.commands_published);
   out->set_imu_rate_hz(s.imu_rate_hz);
   out->set_pose_rate_hz(s.pose_rate_hz);
+  out->set_lockstep_frames_missed(s.lockstep_frames_missed);
+  out->set_lockstep_source_silent(s.lockstep_source_silent);
   out->set_position_rms_m(a.position_rms_m);
   out->set_angular_rate_rms_radps(a.angular_rate_rms_radps);
   ToProto(a.step_ms, out->mutable_step_ms());
@@ -583,6 +611,10 @@ void ToProto(const ControlCoreState& s, v1::ControlState* out) {
   e->set_converged(a.estimator_converged);
   e->set_last_pose_t_ns(s.last_pose_t_ns);
   e->set_last_pose_delay_ms(s.last_pose_delay_ms);
+  e->set_initialized(s.estimator_initialized);
+  e->set_last_pose_arrival_t_ns(s.last_pose_arrival_ns);
+  e->set_poses_gated(s.poses_gated);
+  out->set_moving(s.moving);
   v1::TrajectorySample* r = out->mutable_reference();
   r->set_t_s(a.reference.t_s);
   ToProto(a.reference.position, r->mutable_position());

@@ -67,8 +67,9 @@ Result<PoseInput> FromDds(const mav_dds_PoseWithCovariance& pose) {
   PoseInput out;
   out.frame_id = std::string(pose.child_frame_id, strnlen(pose.child_frame_id, 32));
   out.t_ns = pose.t_ns;
+  // SE3 normalizes only a quaternion that is not unit to rounding: a unit one passes bit for bit.
   out.T_world_sensor =
-      geometry::SE3(Eigen::Quaterniond(q.w / norm, q.x / norm, q.y / norm, q.z / norm),
+      geometry::SE3(Eigen::Quaterniond(q.w, q.x, q.y, q.z),
                     Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z));
   return out;
 }
@@ -126,6 +127,39 @@ void DdsIo::StopInputLocked() {
   pose_reader_.reset();
 }
 
+void DdsIo::OnPoseSample(const mav_dds_PoseWithCovariance& sample) {
+  ++poses_received_;
+  Result<PoseInput> pose = FromDds(sample);
+  if (!pose.ok()) {
+    // A LOST answer still answers its frame (a lock-step source).
+    core_->OnPoseAnswer(std::string(sample.child_frame_id, strnlen(sample.child_frame_id, 32)),
+                        sample.t_ns, pose.status().message());
+    return;
+  }
+  core_->OnPose(pose->frame_id, pose->t_ns, pose->T_world_sensor);
+}
+
+void DdsIo::WaitForPoses(int64_t imu_t_ns) {
+  constexpr int64_t kSliceNs = 5'000'000;
+  const int64_t give_up_ns = MonotonicNowNs() + core_->LockstepWaitNs();
+  while (true) {
+    for (;;) {  // drain what arrived
+      Result<transport::LoanedSamples<mav_dds_PoseWithCovariance>> samples = pose_reader_->Take(64);
+      if (!samples.ok() || samples->size() == 0) break;
+      for (int32_t i = 0; i < samples->size(); ++i) {
+        if (samples->valid(i)) OnPoseSample((*samples)[i]);
+      }
+    }
+    if (!core_->AwaitingPose(imu_t_ns)) return;
+    const int64_t remaining = give_up_ns - MonotonicNowNs();
+    if (remaining <= 0) {
+      core_->GiveUpWaiting(imu_t_ns);
+      return;
+    }
+    (void)pose_reader_->WaitForData(std::min(remaining, kSliceNs));
+  }
+}
+
 Status DdsIo::SetInput(bool enabled) {
   std::lock_guard<std::mutex> lock(control_mutex_);
   if (enabled == imu_reader_.has_value()) return Status::Ok();
@@ -145,15 +179,7 @@ Status DdsIo::SetInput(bool enabled) {
   pose_reader_.emplace(std::move(pose));
   read_loop_.emplace("control input", kPollNs);
   read_loop_->AddReader<mav_dds_PoseWithCovariance>(
-      &*pose_reader_, [this](const mav_dds_PoseWithCovariance& sample) {
-        ++poses_received_;
-        Result<PoseInput> pose = FromDds(sample);
-        if (!pose.ok()) {
-          core_->RejectPose(pose.status().message());
-          return;
-        }
-        core_->OnPose(pose->frame_id, pose->t_ns, pose->T_world_sensor);
-      });
+      &*pose_reader_, [this](const mav_dds_PoseWithCovariance& sample) { OnPoseSample(sample); });
   read_loop_->SetWakeReader<mav_dds_ImuSample>(&*imu_reader_, [this](const mav_dds_ImuSample& s) {
     ++imu_received_;
     Result<control::ImuMeasurement> imu = FromDds(s);
@@ -161,6 +187,7 @@ Status DdsIo::SetInput(bool enabled) {
       core_->RejectImu(imu.status().message());
       return;
     }
+    if (core_->AwaitingPose(imu->t_ns)) WaitForPoses(imu->t_ns);
     core_->OnImu(*imu);
   });
   read_loop_->SetOnPoll([this] { core_->OnPoll(MonotonicNowNs()); });

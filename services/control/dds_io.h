@@ -78,6 +78,11 @@ class DdsIo : public CommandSink, public InputControl {
   DdsIo(transport::Participant participant, ImuTopic imu_topic, PoseTopic pose_topic,
         ActuatorTopic actuator_topic, transport::Writer<mav_dds_ActuatorCommand> writer);
   void StopInputLocked();
+  // On the read loop's thread: one pose sample to the core (a LOST one still answers its frame).
+  void OnPoseSample(const mav_dds_PoseWithCovariance& sample);
+  // Lock-step pose sources: drains the pose reader until every frame due by imu_t_ns is answered
+  // or the core's wait runs out (ControlCore::AwaitingPose / GiveUpWaiting).
+  void WaitForPoses(int64_t imu_t_ns);
 
   ControlCore* core_ = nullptr;
   // Declaration order = reverse destruction order: readers/writer, topics, participant.

@@ -156,6 +156,25 @@ void ToProto(const dataset::ImuNoise& noise, double rate_hz, v1::ImuNoise* out) 
 
 // ---- Flight mode ------------------------------------------------------------------------------
 
+Result<mission::VehicleOptions> FromProto(const v1::MissionFlight& request, uint64_t seed) {
+  mission::VehicleOptions v;
+  v.seed = seed;
+  if (!request.pose_source().empty()) {
+    const std::optional<mission::PoseSource> source =
+        mission::ParsePoseSource(request.pose_source());
+    if (!source) {
+      return Status::InvalidArgument("mission.pose_source: '" + request.pose_source() +
+                                     "' is not vo, contest or truth");
+    }
+    v.pose_source = *source;
+  }
+  v.camera_pitch_rad = request.camera_pitch_rad();
+  if (request.camera_rate_hz() != 0.0) v.camera_rate_hz = request.camera_rate_hz();
+  if (request.imu_rate_hz() != 0.0) v.imu_rate_hz = request.imu_rate_hz();
+  if (std::string why; !v.IsValid(&why)) return Status::InvalidArgument("mission." + why);
+  return v;
+}
+
 Result<FlightLoadRequest> FromProto(const v1::LoadFlightTaskRequest& request) {
   FlightLoadRequest out;
   switch (request.task_case()) {
@@ -174,8 +193,21 @@ Result<FlightLoadRequest> FromProto(const v1::LoadFlightTaskRequest& request) {
       out.value = request.path();
       if (out.value.empty()) return Status::InvalidArgument("path: empty path");
       break;
+    case v1::LoadFlightTaskRequest::kMission: {
+      out.source = FlightLoadRequest::Source::kMission;
+      MAV_ASSIGN_OR_RETURN(out.vehicle, FromProto(request.mission(), request.seed()));
+      const std::string& name = request.mission().source_name();
+      MAV_ASSIGN_OR_RETURN(out.mission, dataset::ParseMissionYaml(request.mission().yaml(),
+                                                                  name.empty() ? "mission" : name));
+      out.config.task = mission::MissionFlightTask(out.mission, out.vehicle);
+      if (!request.map_path().empty()) {
+        return Status::InvalidArgument(
+            "map_path: a mission flies in its world's exact geometry; leave map_path empty");
+      }
+      break;
+    }
     case v1::LoadFlightTaskRequest::TASK_NOT_SET:
-      return Status::InvalidArgument("task: set builtin (t3_1 ... t4_3), yaml or path");
+      return Status::InvalidArgument("task: set builtin (t3_1 ... t4_3), yaml, path or mission");
   }
   out.map_path = request.map_path();
   FlightConfig& c = out.config;
@@ -304,6 +336,17 @@ void ToProto(const FlightStatus& status, v1::FlightStatus* out) {
   out->set_min_clearance_m(status.min_clearance_m);
   out->set_actuator_writers(status.actuator_writers);
   out->set_dds_domain(status.dds_domain);
+  v1::GroundTruthState* truth = out->mutable_truth();
+  truth->set_t_ns(status.t_ns);
+  ToProto(geometry::SE3(status.truth.q_world_body, status.truth.p_world),
+          truth->mutable_t_world_body());
+  ToProto(status.truth.v_world, truth->mutable_velocity());
+  ToProto(status.gyro_offset, truth->mutable_gyro_bias());
+  ToProto(status.accel_offset, truth->mutable_accel_bias());
+  ToProto(status.truth.omega_body, truth->mutable_angular_velocity());
+  out->set_frames_published(status.frames_published);
+  ToProto(status.render_ms, out->mutable_render_ms());
+  out->set_stereo_subscribers(status.stereo_readers);
 }
 
 }  // namespace mav::simulator_service

@@ -35,12 +35,17 @@ Result<Pacing> FromProto(const v1::SimulatorStartRequest& request);
 // left for the service to resolve). InvalidArgument "task: ..." when no source is set, "builtin:
 // empty", "path: empty", "yaml: empty"; the ranges are FlightConfig::IsValid's.
 struct FlightLoadRequest {
-  enum class Source { kBuiltin, kYaml, kPath };
+  enum class Source { kBuiltin, kYaml, kPath, kMission };
   Source source = Source::kBuiltin;
-  std::string value;     // the task name, the YAML text or the file path
+  std::string value;  // the task name, the YAML text or the file path
+  // kMission: the parsed mission and its vehicle (config.task is MissionFlightTask's).
+  dataset::MissionSpec mission;
+  mission::VehicleOptions vehicle;
   std::string map_path;  // replaces the task's map when not empty
   FlightConfig config;
 };
+// InvalidArgument "mission.<field>: ..." for a bad vehicle option.
+Result<mission::VehicleOptions> FromProto(const v1::MissionFlight& request, uint64_t seed);
 Result<FlightLoadRequest> FromProto(const v1::LoadFlightTaskRequest& request);
 // InvalidArgument "run_until_s: ..." (not finite, negative). "Not after the flight's time" is the
 // Flight's check.

@@ -70,6 +70,10 @@ class DdsStreamSink : public StreamSink, public FlightIo {
                            double orientation_sigma_rad) override;
   Status PublishFlightGroundTruth(uint64_t sequence,
                                   const dataset::GroundTruthState& state) override;
+  Status PublishFlightStereo(const RenderedFrame& frame) override {
+    return PublishStereo(static_cast<uint64_t>(frame.index), frame, /*rectified=*/false);
+  }
+  uint32_t StereoReaders() override { return StereoSubscribers(); }
   void DiscardCommands() override;
   std::optional<ActuatorInput> WaitForCommand(int64_t min_t_ns, int64_t max_t_ns,
                                               int64_t timeout_ns, uint64_t* received) override;

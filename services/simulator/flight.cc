@@ -7,6 +7,7 @@
 #include "mav/common/check.h"
 #include "mav/common/log.h"
 #include "mav/common/time.h"
+#include "mav/sim/scenario_source.h"
 #include "services/common/proto_codec.h"
 
 namespace mav::simulator_service {
@@ -93,7 +94,9 @@ struct Flight::Loaded {
   std::vector<eval::FlightTraceSample> trace;  // one per step, for the score
   bool published = false;                      // the current step's readings are out
   uint64_t goal_pause_step = std::numeric_limits<uint64_t>::max();
-  uint64_t step = 0;  // index of the current step
+  uint64_t step = 0;                               // index of the current step
+  bool keep_trace = true;                          // false for a mission flight (no score)
+  std::unique_ptr<mission::VehicleCamera> camera;  // a mission flight's, pose source vo
   int64_t imu_publish_wall_ns = 0;
   // Real time: the pacing anchor and the newest valid command.
   int64_t anchor_wall_ns = 0, anchor_t_ns = 0;
@@ -102,7 +105,11 @@ struct Flight::Loaded {
 };
 
 Flight::Flight(FlightIo* io)
-    : io_(io), queue_(QueueOptions()), step_ms_(kStatsWindow), command_wait_ms_(kStatsWindow) {
+    : io_(io),
+      queue_(QueueOptions()),
+      step_ms_(kStatsWindow),
+      command_wait_ms_(kStatsWindow),
+      render_ms_(kStatsWindow) {
   MAV_CHECK(io_ != nullptr);
 }
 
@@ -111,10 +118,11 @@ Flight::~Flight() { Shutdown(); }
 void Flight::Shutdown() { queue_.Stop("the simulator is shutting down"); }
 
 Status Flight::Load(const FlightConfig& config, std::shared_ptr<const sim::CollisionWorld> world,
-                    const Termination& deadline) {
+                    const Termination& deadline,
+                    const std::shared_ptr<const MissionScene>& mission) {
   if (std::string why; !config.IsValid(&why)) return Status::InvalidArgument(why);
   const double steps = config.task.duration_s * config.task.imu.rate_hz + 2;
-  if (steps > static_cast<double>(kMaxTraceSteps)) {
+  if (mission == nullptr && steps > static_cast<double>(kMaxTraceSteps)) {
     return Status::ResourceExhausted(
         "duration_s: task " + config.task.name + " has " + Number(steps) +
         " steps (duration_s x imu.rate_hz), more than the flight record's cap of " +
@@ -128,9 +136,18 @@ Status Flight::Load(const FlightConfig& config, std::shared_ptr<const sim::Colli
   for (int i = 0; i < loaded->sim.pose_sensor_count(); ++i) {
     loaded->frame_ids.push_back("pose_sensor" + std::to_string(i));
   }
-  loaded->trace.reserve(static_cast<size_t>(steps));
   loaded->out = &loaded->sim.Initial();
-  loaded->trace.push_back(TraceSample(*loaded->out));
+  loaded->keep_trace = mission == nullptr;
+  if (loaded->keep_trace) {
+    loaded->trace.reserve(static_cast<size_t>(steps));
+    loaded->trace.push_back(TraceSample(*loaded->out));
+  }
+  if (mission != nullptr && mission->vehicle.pose_source == mission::PoseSource::kVo) {
+    const sim::MulticopterState& x0 = loaded->out->truth;
+    loaded->camera = std::make_unique<mission::VehicleCamera>(
+        mission->preset, mission->vehicle, loaded->sim.step_ns(), loaded->out->t_ns,
+        geometry::SE3(x0.q_world_body, x0.p_world));
+  }
   loaded->latest_command = sim::RotorVector::Zero(config.simulation.vehicle.rotor_count);
 
   std::lock_guard<std::mutex> command(command_mutex_);
@@ -148,6 +165,12 @@ Status Flight::Load(const FlightConfig& config, std::shared_ptr<const sim::Colli
   collisions_total_ = 0;
   lifted_off_ = false;
   position_ = loaded_->sim.Initial().truth.p_world;
+  truth_ = loaded_->sim.Initial().truth;
+  gyro_offset_ = loaded_->sim.imu().gyro_offset();
+  accel_offset_ = loaded_->sim.imu().accel_offset();
+  frames_published_ = 0;
+  render_ms_.Clear();
+  is_mission_ = mission != nullptr;
   run_start_wall_ns_ = run_last_wall_ns_ = 0;
   run_start_t_ns_ = 0;
   step_ms_.Clear();
@@ -156,7 +179,8 @@ Status Flight::Load(const FlightConfig& config, std::shared_ptr<const sim::Colli
   last_error_.clear();
   score_.reset();
   min_clearance_m_ = 0;
-  MAV_LOG(kInfo) << "flight task " << config.task.name << " loaded ("
+  MAV_LOG(kInfo) << (mission ? "mission flight " : "flight task ") << config.task.name
+                 << " loaded ("
                  << (config.lockstep ? "lock-step"
                                      : "real time x" + Number(config.real_time_factor))
                  << ", seed " << config.seed << ", " << config.task.duration_s << " s)";
@@ -259,6 +283,13 @@ FlightStatus Flight::StatusLocked() const {
   s.min_clearance_m = min_clearance_m_;
   s.actuator_writers = io_->ActuatorWriters();
   s.dds_domain = io_->domain();
+  s.truth = truth_;
+  s.gyro_offset = gyro_offset_;
+  s.accel_offset = accel_offset_;
+  s.is_mission = is_mission_;
+  s.frames_published = frames_published_;
+  s.render_ms = render_ms_.Summary();
+  s.stereo_readers = io_->StereoReaders();
   return s;
 }
 
@@ -300,6 +331,27 @@ Status Flight::PublishStep(const sim::FlightStep& out, Loaded* loaded) {
   gt_published_ = gt_seq;
   if (!first_error.ok()) last_error_ = first_error.ToString();
   return first_error;
+}
+
+void Flight::PublishFrames(Loaded* loaded) {
+  const sim::FlightStep& out = *loaded->out;
+  loaded->camera->Observe(out.t_ns, geometry::SE3(out.truth.q_world_body, out.truth.p_world));
+  for (const int64_t frame : loaded->camera->DueFrames()) {
+    sim::RenderedFrame rendered;
+    rendered.index = frame;
+    rendered.t_ns = loaded->camera->FrameTimeNs(frame);
+    const int64_t start_ns = MonotonicNowNs();
+    loaded->camera->Render(frame, &rendered.left, &rendered.right);
+    rendered.render_ms = MsSince(start_ns);
+    const Status published = io_->PublishFlightStereo(rendered);
+    std::lock_guard<std::mutex> lock(mutex_);
+    render_ms_.Add(rendered.render_ms);
+    if (published.ok()) {
+      ++frames_published_;
+    } else {
+      last_error_ = published.ToString();
+    }
+  }
 }
 
 std::optional<sim::RotorVector> Flight::Checked(const ActuatorInput& input, int rotor_count) {
@@ -405,6 +457,10 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
 void Flight::FinishLocked(Loaded* loaded) {
   state_ = FlightState::kFinished;
   pause_reason_.clear();
+  if (!loaded->keep_trace) {
+    MAV_LOG(kInfo) << "mission flight ended at its " << NsToSeconds(t_ns_) << " s limit";
+    return;
+  }
   score_ = eval::ScoreFlightTask(loaded->config.task, loaded->trace,
                                  static_cast<int>(loaded->sim.collisions().size()));
   const double clearance = loaded->sim.min_clearance_m();
@@ -478,8 +534,13 @@ Status Flight::Run(const TaskContext& context, const FlightRun& run) {
     const double step_ms = MsSince(start_ns);
     loaded->published = false;
     ++loaded->step;
-    loaded->trace.push_back(TraceSample(next));
+    if (loaded->keep_trace) loaded->trace.push_back(TraceSample(next));
+    // The frames whose shutter this step completed go out before the step's IMU sample.
+    if (loaded->camera) PublishFrames(loaded.get());
     std::lock_guard<std::mutex> lock(mutex_);
+    truth_ = next.truth;
+    gyro_offset_ = loaded->sim.imu().gyro_offset();
+    accel_offset_ = loaded->sim.imu().accel_offset();
     ++steps_;
     t_ns_ = next.t_ns;
     goal_index_ = next.goal_index;

@@ -44,8 +44,13 @@
 #include "mav/dataset/flight_task.h"
 #include "mav/dataset/types.h"
 #include "mav/eval/contest_score.h"
+#include "mav/mission/vehicle.h"
 #include "mav/sim/collision_world.h"
 #include "mav/sim/flight_simulation.h"
+
+namespace mav::sim {
+struct RenderedFrame;
+}
 
 namespace mav::simulator_service {
 
@@ -70,6 +75,10 @@ class FlightIo {
                                    double orientation_sigma_rad) = 0;
   virtual Status PublishFlightGroundTruth(uint64_t sequence,
                                           const dataset::GroundTruthState& state) = 0;
+  // A mission flight's stereo pair (the EuRoC raw rig, not rectified), sequence = frame index.
+  virtual Status PublishFlightStereo(const sim::RenderedFrame& frame) = 0;
+  // Matched readers of the stereo stream.
+  virtual uint32_t StereoReaders() = 0;
   // Forgets commands received so far (a new flight starts clean).
   virtual void DiscardCommands() = 0;
   // Waits at most timeout_ns for a command stamped in [min_t_ns, max_t_ns] and returns the newest
@@ -107,6 +116,14 @@ struct FlightConfig {
   bool OptionsValid(std::string* why) const;
 };
 
+// A mission flight's world and camera (LoadFlightTask's MissionFlight): the vehicle flies in the
+// preset's world and, for pose source vo, renders the forward stereo camera from its state
+// (mission::VehicleCamera).
+struct MissionScene {
+  sim::Preset preset;  // its world's textures built for the seed
+  mission::VehicleOptions vehicle;
+};
+
 struct FlightRun {
   double until_s = 0;          // 0 = to the end
   bool pause_on_goal = false;  // pause before publishing a step that publishes a goal
@@ -137,6 +154,14 @@ struct FlightStatus {
   double min_clearance_m = 0;            // 0 without a map
   uint32_t actuator_writers = 0;
   uint32_t dds_domain = 0;
+  // The current step's true state.
+  sim::MulticopterState truth;
+  Eigen::Vector3d gyro_offset = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_offset = Eigen::Vector3d::Zero();
+  bool is_mission = false;
+  uint64_t frames_published = 0;
+  RuntimeStats render_ms;
+  uint32_t stereo_readers = 0;
 };
 
 class Flight {
@@ -153,9 +178,12 @@ class Flight {
   // Builds the simulation for `config` (InvalidArgument naming the field; NotFound / DataLoss
   // for the task's map unless `world` is given; ResourceExhausted for a task longer than
   // kMaxTraceSteps), then replaces the loaded flight: a running one is stopped first; state
-  // LOADED at t = 0. DEADLINE_EXCEEDED (nothing changed) when `deadline` stops first.
+  // LOADED at t = 0. DEADLINE_EXCEEDED (nothing changed) when `deadline` stops first. With
+  // `mission`, a mission flight: no score trace (no step cap) and, for pose source vo, the
+  // camera.
   Status Load(const FlightConfig& config, std::shared_ptr<const sim::CollisionWorld> world,
-              const Termination& deadline = {});
+              const Termination& deadline = {},
+              const std::shared_ptr<const MissionScene>& mission = nullptr);
   // FailedPrecondition unless LOADED or PAUSED; InvalidArgument for run.until_s not after the
   // flight's time (or not finite).
   Result<FlightStatus> Start(const FlightRun& run);
@@ -172,6 +200,8 @@ class Flight {
   // On the worker: steps until the end, a pause condition, or the task goes stale.
   Status Run(const TaskContext& context, const FlightRun& run);
   Status PublishStep(const sim::FlightStep& out, Loaded* loaded);
+  // A mission flight's camera after a step: renders and publishes the frames now due.
+  void PublishFrames(Loaded* loaded);
   // The command for the current step: lock-step waits, real time sleeps until due. nullopt:
   // interrupted (the task went stale) or timed out (paused, last_error set).
   std::optional<sim::RotorVector> CommandForStep(const TaskContext& context, Loaded* loaded,
@@ -205,6 +235,12 @@ class Flight {
   std::string last_error_;
   std::optional<eval::TaskScore> score_;
   double min_clearance_m_ = 0;
+  sim::MulticopterState truth_;
+  Eigen::Vector3d gyro_offset_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_offset_ = Eigen::Vector3d::Zero();
+  uint64_t frames_published_ = 0;
+  RuntimeWindow render_ms_;
+  bool is_mission_ = false;
 };
 
 }  // namespace mav::simulator_service

@@ -3,11 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <thread>
 
+#include "mav/camera/stereo.h"
 #include "mav/common/log.h"
 #include "mav/dataset/flight_task_io.h"
 #include "mav/sim/flight_task.h"
+#include "mav/sim/occupancy.h"
 #include "services/common/file_stream.h"
 #include "services/common/grpc_status.h"
 #include "services/simulator/convert.h"
@@ -38,6 +41,8 @@ class NullFlightIo : public FlightIo {
   Status PublishFlightGroundTruth(uint64_t, const dataset::GroundTruthState&) override {
     return Status::Ok();
   }
+  Status PublishFlightStereo(const sim::RenderedFrame&) override { return Status::Ok(); }
+  uint32_t StereoReaders() override { return 0; }
   void DiscardCommands() override {}
   std::optional<ActuatorInput> WaitForCommand(int64_t, int64_t, int64_t timeout_ns,
                                               uint64_t*) override {
@@ -90,6 +95,7 @@ grpc::Status SimulatorService::LoadScenario(grpc::ServerContext* context,
   if (Status s = CheckDeadline(*context, "LoadScenario"); !s.ok()) return ToGrpcStatus(s);
   std::shared_ptr<const ScenarioSource> shared = std::move(*source);
   if (Status s = player_.Load(shared, CallTermination(*context)); !s.ok()) return ToGrpcStatus(s);
+  set_mission_scene(nullptr);  // GetCalibration / GetGroundTruthOccupancy answer for the scenario
   ToProto(shared->info(), response->mutable_scenario());
   return grpc::Status::OK;
 }
@@ -142,9 +148,25 @@ grpc::Status SimulatorService::GetStatus(grpc::ServerContext*, const v1::Simulat
 grpc::Status SimulatorService::GetCalibration(grpc::ServerContext*,
                                               const v1::GetCalibrationRequest*,
                                               v1::GetCalibrationResponse* response) {
+  if (std::shared_ptr<const MissionScene> mission = mission_scene(); mission != nullptr) {
+    // The mission's camera: the EuRoC raw rig on the vehicle; its IMU is the vehicle's.
+    const mission::VehicleOptions& v = mission->vehicle;
+    const dataset::FlightImuSpec imu = mission::MissionFlightTask({}, v).imu;
+    dataset::ImuNoise noise;
+    noise.gyroscope_noise_density = imu.gyro_noise_sigma / std::sqrt(imu.rate_hz);
+    noise.accelerometer_noise_density = imu.accel_noise_sigma / std::sqrt(imu.rate_hz);
+    noise.gyroscope_random_walk = imu.gyro_drift_sigma / std::sqrt(imu.drift_horizon_s);
+    noise.accelerometer_random_walk = imu.accel_drift_sigma / std::sqrt(imu.drift_horizon_s);
+    ToProto(camera::EurocStereoCalibration(), v.camera_rate_hz, /*rectified=*/false,
+            response->mutable_stereo());
+    ToProto(noise, v.imu_rate_hz, response->mutable_imu());
+    ToProto(mission::VehicleRigMount(v.camera_pitch_rad).Inverse(), response->mutable_t_body_imu());
+    return grpc::Status::OK;
+  }
   std::shared_ptr<const ScenarioSource> source = player_.source();
   if (source == nullptr) {
-    return ToGrpcStatus(Status::FailedPrecondition("no scenario loaded: call LoadScenario first"));
+    return ToGrpcStatus(Status::FailedPrecondition(
+        "no scenario or mission flight loaded: call LoadScenario or LoadFlightTask first"));
   }
   const ScenarioInfo& info = source->info();
   ToProto(source->calibration(), info.camera_rate_hz, info.rectified, response->mutable_stereo());
@@ -156,15 +178,19 @@ grpc::Status SimulatorService::GetCalibration(grpc::ServerContext*,
 grpc::Status SimulatorService::GetGroundTruthOccupancy(
     grpc::ServerContext* context, const v1::GetGroundTruthOccupancyRequest* request,
     grpc::ServerWriter<v1::OccupancyChunk>* writer) {
+  // The loaded mission flight's world, else the scenario's.
+  std::shared_ptr<const MissionScene> mission = mission_scene();
   std::shared_ptr<const ScenarioSource> source = player_.source();
-  if (source == nullptr) {
-    return ToGrpcStatus(Status::FailedPrecondition("no scenario loaded: call LoadScenario first"));
+  if (mission == nullptr && source == nullptr) {
+    return ToGrpcStatus(Status::FailedPrecondition(
+        "no scenario or mission flight loaded: call LoadScenario or LoadFlightTask first"));
   }
-  const sim::ScenarioInfo& info = source->info();
+  std::optional<sim::ScenarioInfo> info;
+  if (mission == nullptr) info = source->info();
   double resolution = request->resolution_m();
   if (resolution == 0.0) {
-    resolution =
-        info.occupancy_resolution_m > 0 ? info.occupancy_resolution_m : kDefaultResolutionM;
+    resolution = info && info->occupancy_resolution_m > 0 ? info->occupancy_resolution_m
+                                                          : kDefaultResolutionM;
   }
   if (!std::isfinite(resolution) || resolution < 0.01 || resolution > 2.0) {
     return ToGrpcStatus(Status::InvalidArgument("resolution_m: must be in [0.01, 2] m, got " +
@@ -174,12 +200,14 @@ grpc::Status SimulatorService::GetGroundTruthOccupancy(
   if (!chunk_bytes.ok()) return ToGrpcStatus(chunk_bytes.status());
   Result<v1::OccupancyFormat> format = OccupancyFormatFromProto(request->format());
   if (!format.ok()) return ToGrpcStatus(format.status());
-  if (!info.has_ground_truth_occupancy) {
-    return ToGrpcStatus(Status::NotFound("no ground-truth occupancy for " + info.name +
+  if (info && !info->has_ground_truth_occupancy) {
+    return ToGrpcStatus(Status::NotFound("no ground-truth occupancy for " + info->name +
                                          " (a preset, or a data set written by mav-sim generate "
                                          "with ground_truth/occupancy.mavocc)"));
   }
-  Result<dataset::GridGeometry> geometry = source->OccupancyGeometry(resolution);
+  Result<dataset::GridGeometry> geometry =
+      mission ? sim::OccupancyGeometry(*mission->preset.world, resolution)
+              : source->OccupancyGeometry(resolution);
   if (!geometry.ok()) return ToGrpcStatus(geometry.status());
 
   // Refuse before allocating: the grid, and for a .bt answer OctoMap's tree of every known voxel.
@@ -211,7 +239,9 @@ grpc::Status SimulatorService::GetGroundTruthOccupancy(
       self->occupancy_reserved_bytes_ -= bytes;
     }
   } release{this, static_cast<int64_t>(need)};
-  Result<dataset::OccupancyGrid> grid = source->Occupancy(resolution, CallTermination(*context));
+  Result<dataset::OccupancyGrid> grid =
+      mission ? sim::ComputeOccupancy(*mission->preset.world, resolution, CallTermination(*context))
+              : source->Occupancy(resolution, CallTermination(*context));
   if (!grid.ok()) return ToGrpcStatus(grid.status());
   if (Status s = CheckDeadline(*context, "GetGroundTruthOccupancy"); !s.ok()) {
     return ToGrpcStatus(s);
@@ -247,6 +277,9 @@ Result<dataset::FlightTask> SimulatorService::ResolveFlightTask(
         return task.status();
       }
       break;
+    case FlightLoadRequest::Source::kMission:
+      task = load.config.task;  // MissionFlightTask's, built by FromProto
+      break;
   }
   if (!load.map_path.empty()) task->map_path = load.map_path;
   return task;
@@ -264,6 +297,16 @@ Result<std::shared_ptr<const sim::CollisionWorld>> SimulatorService::WorldFor(
   return world_;
 }
 
+std::shared_ptr<const MissionScene> SimulatorService::mission_scene() const {
+  std::lock_guard<std::mutex> lock(mission_mutex_);
+  return mission_;
+}
+
+void SimulatorService::set_mission_scene(std::shared_ptr<const MissionScene> scene) {
+  std::lock_guard<std::mutex> lock(mission_mutex_);
+  mission_ = std::move(scene);
+}
+
 grpc::Status SimulatorService::ApplyLoadFlightTask(const v1::LoadFlightTaskRequest& request,
                                                    const Termination& deadline,
                                                    v1::FlightStatus* response) {
@@ -275,9 +318,24 @@ grpc::Status SimulatorService::ApplyLoadFlightTask(const v1::LoadFlightTaskReque
     return ToGrpcStatus(task.status());
   }
   load->config.task = std::move(*task);
+  if (load->source == FlightLoadRequest::Source::kMission) {
+    Result<mission::MissionWorld> world =
+        mission::MakeMissionWorld(load->mission, load->config.seed);
+    if (!world.ok()) return ToGrpcStatus(world.status());
+    auto scene = std::make_shared<MissionScene>();
+    scene->preset = std::move(world->preset);
+    scene->vehicle = load->vehicle;
+    if (Status s = flight_->Load(load->config, world->collision, deadline, scene); !s.ok()) {
+      return ToGrpcStatus(s);
+    }
+    set_mission_scene(std::move(scene));
+    ToProto(flight_->GetStatus(), response);
+    return grpc::Status::OK;
+  }
   Result<std::shared_ptr<const sim::CollisionWorld>> world = WorldFor(load->config.task.map_path);
   if (!world.ok()) return ToGrpcStatus(world.status());
   if (Status s = flight_->Load(load->config, *world, deadline); !s.ok()) return ToGrpcStatus(s);
+  set_mission_scene(nullptr);
   ToProto(flight_->GetStatus(), response);
   return grpc::Status::OK;
 }

@@ -84,6 +84,10 @@ class SimulatorService final : public v1::Simulator::Service {
   Result<dataset::FlightTask> ResolveFlightTask(const FlightLoadRequest& load) const;
   // The task's collision world, read once per map file (the last one is kept: one map in memory).
   Result<std::shared_ptr<const sim::CollisionWorld>> WorldFor(const std::string& map_path);
+  // The loaded mission flight's world and camera (null unless the last load was a mission flight
+  // and no scenario was loaded since): GetCalibration and GetGroundTruthOccupancy answer for it.
+  std::shared_ptr<const MissionScene> mission_scene() const;
+  void set_mission_scene(std::shared_ptr<const MissionScene> scene);
 
   SimulatorServiceOptions options_;
   Player player_;
@@ -94,6 +98,8 @@ class SimulatorService final : public v1::Simulator::Service {
   std::shared_ptr<const sim::CollisionWorld> world_;
   std::mutex occupancy_mutex_;
   int64_t occupancy_reserved_bytes_ = 0;  // estimated need of the calls in flight
+  mutable std::mutex mission_mutex_;
+  std::shared_ptr<const MissionScene> mission_;
 };
 
 }  // namespace mav::simulator_service

@@ -369,7 +369,78 @@ TEST_F(ControlContractTest, ConfigureRejectsBadInputNamingTheField) {
                          "goto_limits.max_speed_mps");
   ExpectConfigureInvalid([](R* r) { r->set_min_rotor_speed_radps(900); }, "min_rotor_speed_radps");
   ExpectConfigureInvalid([](R* r) { r->set_max_tilt_rad(2); }, "max_tilt_rad");
+  ExpectConfigureInvalid([](R* r) { r->mutable_estimator()->set_pose_gate_m(-0.1); },
+                         "estimator.pose_gate_m");
+  ExpectConfigureInvalid([](R* r) { r->mutable_estimator()->set_pose_gate_rad(std::nan("")); },
+                         "estimator.pose_gate_rad");
+  ExpectConfigureInvalid(
+      [](R* r) {  // a lock-stepped source needs a lock-stepped clock
+        r->mutable_estimator()->mutable_pose_sources(0)->set_lockstep_latency_s(0.05);
+      },
+      "estimator.pose_sources[0].lockstep_latency_s: needs lockstep");
+  ExpectConfigureInvalid(
+      [](R* r) {
+        r->set_lockstep(true);
+        r->mutable_estimator()->mutable_pose_sources(0)->set_lockstep_latency_s(2);
+      },
+      "estimator.pose_sources[0].lockstep_latency_s");
+  ExpectConfigureInvalid(
+      [](R* r) {
+        r->set_lockstep(true);
+        r->mutable_estimator()->mutable_pose_sources(0)->set_lockstep_latency_s(0.05);
+        r->mutable_estimator()->mutable_pose_sources(0)->set_lockstep_wait_s(100);
+      },
+      "estimator.pose_sources[0].lockstep_wait_s");
   EXPECT_FALSE(GetStatus().configured()) << "nothing of this was applied";
+}
+
+// A lock-stepped camera-rate source (a localization service answering every frame of a
+// simulator's mission flight): its poses are merged at stamp + latency whenever they arrive, the
+// data plane is told to wait for a frame due and not answered, a LOST answer answers, and a
+// source that stays silent is given up (counted) until it answers again.
+TEST_F(ControlContractTest, LockstepPoseSourceMergesAtStampPlusLatencyAndWaitsForDueFrames) {
+  v1::ControlConfigureRequest request = TaskRequest(/*lockstep=*/true);
+  v1::ControlPoseSource* source = request.mutable_estimator()->mutable_pose_sources(0);
+  source->set_frame_id("body");
+  source->set_rate_hz(20);
+  source->set_lockstep_latency_s(0.05);
+  source->set_lockstep_wait_s(0.5);
+  ASSERT_TRUE(Configure(request).ok());
+  v1::ControlStatus status = GetStatus();
+  EXPECT_DOUBLE_EQ(status.config().estimator().pose_sources(0).lockstep_latency_s(), 0.05);
+  const control::ImuMeasurement still{0, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 9.81)};
+  auto imu_at = [&](double t_s) {
+    control::ImuMeasurement imu = still;
+    imu.t_ns = SecondsToNs(t_s);
+    return imu;
+  };
+  const geometry::SE3 pose(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0, 0.1));
+  EXPECT_FALSE(core_->AwaitingPose(0)) << "frame 0 is due at 0.05 s";
+  core_->OnImu(imu_at(0));
+  EXPECT_TRUE(core_->AwaitingPose(SecondsToNs(0.05)));
+  core_->OnPose("body", 0, pose);  // frame 0 answered early...
+  EXPECT_FALSE(core_->AwaitingPose(SecondsToNs(0.05)));
+  core_->OnImu(imu_at(0.045));
+  EXPECT_FALSE(GetState().estimate().initialized()) << "...but held until its stamp + 50 ms";
+  core_->OnImu(imu_at(0.05));
+  EXPECT_TRUE(GetState().estimate().initialized());
+  EXPECT_EQ(GetState().estimate().last_pose_arrival_t_ns(), SecondsToNs(0.045))
+      << "merged before the IMU sample at 0.05 s (the autopilot's clock is the previous one)";
+  // Frame 1 (0.05 s) answered LOST: answered, not merged.
+  EXPECT_TRUE(core_->AwaitingPose(SecondsToNs(0.1)));
+  core_->OnPoseAnswer("body", SecondsToNs(0.05), "tracking_state: 3 is not OK/INITIALIZING");
+  EXPECT_FALSE(core_->AwaitingPose(SecondsToNs(0.1)));
+  // Frame 2 never answered: given up, silent, counted; an answer brings the wait back.
+  EXPECT_TRUE(core_->AwaitingPose(SecondsToNs(0.15)));
+  EXPECT_EQ(core_->LockstepWaitNs(), SecondsToNs(0.5));
+  core_->GiveUpWaiting(SecondsToNs(0.15));
+  EXPECT_FALSE(core_->AwaitingPose(SecondsToNs(0.3)));
+  status = GetStatus();
+  EXPECT_EQ(status.lockstep_frames_missed(), 1u);
+  EXPECT_TRUE(status.lockstep_source_silent());
+  core_->OnPose("body", SecondsToNs(0.3), pose);
+  EXPECT_FALSE(GetStatus().lockstep_source_silent());
+  EXPECT_TRUE(core_->AwaitingPose(SecondsToNs(0.4))) << "frame 0.35 s is due again";
 }
 
 // ---- Arm / Disarm and the data plane

@@ -88,7 +88,7 @@ class FakeFlightIo : public FlightIo {
  public:
   enum class Mode { kSilent, kMotorsOff, kWrongSize, kNotFinite, kStale, kFuture, kAutopilot };
   struct Event {
-    char kind;  // 'i' imu, 'p' pose, 'g' ground truth
+    char kind;  // 'i' imu, 'p' pose, 'g' ground truth, 's' stereo
     int64_t t_ns;
     std::string frame;
   };
@@ -104,6 +104,12 @@ class FakeFlightIo : public FlightIo {
     mission_ = mission;
   }
 
+  Status PublishFlightStereo(const sim::RenderedFrame& frame) override {
+    std::lock_guard<std::mutex> lock(mutex_);
+    events_.push_back({'s', frame.t_ns, std::to_string(frame.index)});
+    return Status::Ok();
+  }
+  uint32_t StereoReaders() override { return 0; }
   Status PublishFlightImu(uint64_t, const dataset::ImuSample& s) override {
     std::lock_guard<std::mutex> lock(mutex_);
     events_.push_back({'i', s.t_ns, ""});
@@ -485,6 +491,88 @@ TEST_F(SimulatorFlightContractTest, LockstepPublishesEachStepAndWaitsForItsComma
     }
   }
   EXPECT_EQ(expect_imu_t, 1'000'000'000);
+}
+
+// A mission flight (LoadFlightTask's MissionFlight): the mission's vehicle in its world, the
+// forward stereo camera rendered from the flown state and published at 20 Hz stamped with the
+// capture time (frame k at k x 50 ms, out once the state over its shutter is known, before that
+// step's IMU sample); the true state in the status; calibration and ground-truth occupancy of
+// the mission's rig and world; a malformed mission or option refused naming the line or field.
+TEST_F(SimulatorFlightContractTest, AMissionFlightRendersItsCameraAndAnswersForItsWorld) {
+  constexpr char kMission[] =
+      "world: room-easy\nstart: [-2.0, 2.4, 0.0]\naltitude: 1.2\ngoals:\n  - [2.2, -0.8, "
+      "1.0]\n";
+  v1::LoadFlightTaskRequest request;
+  request.mutable_mission()->set_yaml(kMission);
+  request.mutable_mission()->set_source_name("room.yaml");
+  request.set_seed(3);
+  request.set_lockstep(true);
+  // Refusals name the line, the field or the world; nothing is loaded.
+  v1::LoadFlightTaskRequest bad = request;
+  bad.mutable_mission()->set_yaml("world: room-easy\nstart: [0, 0]\ngoals:\n  - [1, 1, 1]\n");
+  ExpectInvalid(Load(bad), "room.yaml:2");
+  bad = request;
+  bad.mutable_mission()->set_yaml("world: attic\nstart: [0, 0, 0]\ngoals:\n  - [1, 1, 1]\n");
+  ExpectInvalid(Load(bad), "room.yaml: world:");
+  bad = request;
+  bad.mutable_mission()->set_pose_source("gps");
+  ExpectInvalid(Load(bad), "mission.pose_source");
+  bad = request;
+  bad.mutable_mission()->set_camera_pitch_rad(2);
+  ExpectInvalid(Load(bad), "mission.camera_pitch_rad");
+  bad = request;
+  bad.set_map_path("maps/power_plant.bt");
+  ExpectInvalid(Load(bad), "map_path");
+  EXPECT_EQ(Get().state(), v1::FLIGHT_STATE_IDLE);
+
+  v1::FlightStatus loaded;
+  ASSERT_TRUE(Load(request, &loaded).ok());
+  EXPECT_EQ(loaded.state(), v1::FLIGHT_STATE_LOADED);
+  EXPECT_NEAR(loaded.truth().t_world_body().position().x(), -2.0, 1e-9);
+  EXPECT_NEAR(loaded.truth().t_world_body().position().z(), 0.08, 1e-9) << "on its legs";
+  EXPECT_EQ(loaded.task().imu_rate_hz(), 200);
+  v1::FlightStatus s;
+  ASSERT_TRUE(Start(0.3, false, &s).ok());
+  s = WaitStopped();
+  ASSERT_EQ(s.state(), v1::FLIGHT_STATE_PAUSED);
+  EXPECT_EQ(s.steps(), 60u);
+  EXPECT_FALSE(s.has_score()) << "a mission keeps no contest score";
+  // Frames 0..5 (0 ... 0.25 s); the 0.3 s one needs the state over its shutter.
+  EXPECT_EQ(s.frames_published(), 6u);
+  EXPECT_EQ(s.render_ms().count(), 6u);
+  const std::vector<FakeFlightIo::Event> events = io_.events();
+  int64_t frame = 0;
+  for (size_t i = 0; i < events.size(); ++i) {
+    if (events[i].kind != 's') continue;
+    EXPECT_EQ(events[i].frame, std::to_string(frame));
+    EXPECT_EQ(events[i].t_ns, frame * 50'000'000);
+    ASSERT_LT(i + 1, events.size());
+    EXPECT_EQ(events[i + 1].kind, 'i') << "a frame goes out before its step's IMU sample";
+    EXPECT_GT(events[i + 1].t_ns, events[i].t_ns) << "after its capture";
+    EXPECT_LE(events[i + 1].t_ns - events[i].t_ns, 15'000'000) << "at most a shutter later";
+    ++frame;
+  }
+  EXPECT_EQ(frame, 6);
+
+  grpc::ClientContext context;
+  context.set_deadline(Deadline(5));
+  v1::GetCalibrationResponse calibration;
+  ASSERT_TRUE(stub_->GetCalibration(&context, v1::GetCalibrationRequest(), &calibration).ok());
+  EXPECT_EQ(calibration.stereo().left().intrinsics().width(), 752u);
+  EXPECT_EQ(calibration.stereo().left().rate_hz(), 20);
+  EXPECT_FALSE(calibration.stereo().rectified()) << "the EuRoC raw rig";
+  EXPECT_NEAR(calibration.t_body_imu().position().z(), -0.12, 1e-9)
+      << "the vehicle's IMU 12 cm behind the rig (the rig's z looks forward)";
+  grpc::ClientContext occupancy_context;
+  occupancy_context.set_deadline(Deadline(60));
+  v1::GetGroundTruthOccupancyRequest occupancy;
+  occupancy.set_resolution_m(0.2);
+  auto reader = stub_->GetGroundTruthOccupancy(&occupancy_context, occupancy);
+  v1::OccupancyChunk chunk;
+  size_t bytes = 0;
+  while (reader->Read(&chunk)) bytes += chunk.chunk().data().size();
+  ASSERT_TRUE(reader->Finish().ok());
+  EXPECT_GT(bytes, 1000u) << "the room's occupancy";
 }
 
 TEST_F(SimulatorFlightContractTest, ALockstepTimeoutPausesAndTheStepIsPublishedAgain) {

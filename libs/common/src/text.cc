@@ -1,5 +1,6 @@
 #include "mav/common/text.h"
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 
@@ -92,6 +93,32 @@ std::string QuoteForError(std::string_view value, size_t max_chars) {
     return out + "...' (" + std::to_string(value.size()) + " bytes)";
   }
   return out + "'";
+}
+
+std::string JsonQuote(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\u%04x", c);
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
+}
+
+std::string JsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";  // JSON has no NaN/inf
+  char buf[32];
+  // Counts (voxels, box positions, points) exactly; other figures to 6 significant digits.
+  const bool integral = std::fabs(v) < 1e15 && v == std::floor(v);
+  std::snprintf(buf, sizeof(buf), integral ? "%.0f" : "%.6g", v);
+  return buf;
 }
 
 }  // namespace mav

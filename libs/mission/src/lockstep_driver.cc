@@ -18,6 +18,7 @@
 #include "mav/mapping/collision_eval.h"
 #include "mav/mapping/observability.h"
 #include "mav/mapping/pipeline.h"
+#include "mav/mission/planning_setup.h"
 #include "mav/planning/planner.h"
 #include "mav/planning/planning_map.h"
 #include "mav/planning/roadmap.h"
@@ -29,25 +30,6 @@
 #include "mav/sim/world.h"
 
 namespace mav::mission {
-
-const char* PoseSourceName(PoseSource source) {
-  switch (source) {
-    case PoseSource::kContest:
-      return "contest";
-    case PoseSource::kVo:
-      return "vo";
-    case PoseSource::kTruth:
-      return "truth";
-  }
-  return "?";
-}
-
-std::optional<PoseSource> ParsePoseSource(std::string_view name) {
-  for (PoseSource s : {PoseSource::kContest, PoseSource::kVo, PoseSource::kTruth}) {
-    if (name == PoseSourceName(s)) return s;
-  }
-  return std::nullopt;
-}
 
 const char* MapSourceName(MapSource source) {
   return source == MapSource::kOnline ? "online" : "truth";
@@ -65,30 +47,16 @@ bool LockstepOptions::IsValid(std::string* why) const {
   auto check = [&](bool ok, const char* what) {
     if (msg.str().empty() && !ok) msg << what;
   };
-  check(vo_latency_s >= 0 && vo_latency_s <= 0.5, "vo_latency_s: must be in [0, 0.5]");
-  check(vo_position_sigma_m > 0 && vo_orientation_sigma_rad > 0,
-        "vo_position_sigma_m / vo_orientation_sigma_rad: must be positive");
-  check(imu_rate_hz >= 50 && imu_rate_hz <= 1000, "imu_rate_hz: must be in [50, 1000]");
-  check(camera_rate_hz > 0 && camera_rate_hz <= imu_rate_hz,
-        "camera_rate_hz: must be in (0, imu_rate_hz]");
-  check(camera_pitch_rad >= 0 && camera_pitch_rad <= 1.2,
-        "camera_pitch_rad: must be in [0, 1.2] (0 = level, looking forward)");
-  check(pose_gate_m >= 0 && pose_gate_rad >= 0, "pose_gate_m / pose_gate_rad: must be >= 0");
-  check(map_resolution_m == 0 || (map_resolution_m >= 0.02 && map_resolution_m <= 1),
-        "map_resolution_m: must be 0 (the world's default) or in [0.02, 1]");
-  check(robot_radius_m == 0 || (robot_radius_m > 0.1 && robot_radius_m <= 3),
-        "robot_radius_m: must be 0 (the world's default) or in (0.1, 3]");
-  check(roadmap_milestones <= 1'000'000, "roadmap_milestones: at most 1000000");
-  check(map_source == MapSource::kGroundTruth || pose_source == PoseSource::kVo,
+  if (std::string vehicle_why; !vehicle.IsValid(&vehicle_why)) msg << vehicle_why;
+  if (std::string planning_why; msg.str().empty() && !planning.IsValid(&planning_why)) {
+    msg << "planning." << planning_why;
+  }
+  check(map_source == MapSource::kGroundTruth || vehicle.pose_source == PoseSource::kVo,
         "map_source: the online map is built from the VO's keyframes (pose_source vo)");
   check(map_rebuild_s > 0 && map_rebuild_s <= 60, "map_rebuild_s: must be in (0, 60]");
   check(map_max_depth_m >= 1 && map_max_depth_m <= 50, "map_max_depth_m: must be in [1, 50]");
-  check(record_rate_hz > 0 && record_rate_hz <= imu_rate_hz,
-        "record_rate_hz: must be in (0, imu_rate_hz]");
-  std::string limits_why;
-  if (msg.str().empty() && limits && !limits->IsValid(&limits_why)) {
-    msg << "limits." << limits_why;
-  }
+  check(record_rate_hz > 0 && record_rate_hz <= vehicle.imu_rate_hz,
+        "record_rate_hz: must be in (0, vehicle.imu_rate_hz]");
   for (size_t i = 0; i < outages.size() && msg.str().empty(); ++i) {
     if (!(outages[i].start_s >= 0 && outages[i].duration_s > 0 &&
           std::isfinite(outages[i].start_s + outages[i].duration_s))) {
@@ -100,39 +68,6 @@ bool LockstepOptions::IsValid(std::string* why) const {
   return false;
 }
 
-double EstimateRmsError(const std::vector<FlightSample>& record) {
-  double sum = 0;
-  size_t n = 0;
-  for (const FlightSample& s : record) {
-    if (!s.armed) continue;
-    sum += (s.p_est - s.p_true).squaredNorm();
-    ++n;
-  }
-  return n ? std::sqrt(sum / static_cast<double>(n)) : std::nan("");
-}
-
-eval::WindowRms ScoreHover(const std::vector<FlightSample>& record, const GoalReport& goal,
-                           double settle_s) {
-  if (!goal.visited) return {};
-  std::vector<eval::FlightTraceSample> trace;
-  trace.reserve(record.size());
-  for (const FlightSample& s : record) {
-    trace.push_back({s.t_s, s.p_true, s.v_true, s.omega_true, s.p_est});
-  }
-  return eval::RmsOverWindow(trace, goal.hover_start_s + settle_s, goal.reached_at_s, goal.goal);
-}
-
-geometry::SE3 LockstepDriver::VehicleRigMount(double pitch_down_rad) {
-  // Rig body axes in the vehicle's: x (up) = vehicle z, z (forward) = vehicle x, y = -vehicle y;
-  // then pitched down about the vehicle's y axis.
-  Eigen::Matrix3d R;
-  R.col(0) = Eigen::Vector3d::UnitZ();
-  R.col(1) = -Eigen::Vector3d::UnitY();
-  R.col(2) = Eigen::Vector3d::UnitX();
-  const Eigen::Matrix3d pitch(Eigen::AngleAxisd(pitch_down_rad, Eigen::Vector3d::UnitY()));
-  return geometry::SE3(Eigen::Quaterniond(pitch * R), Eigen::Vector3d(0.12, 0.0, 0.02));
-}
-
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -140,78 +75,10 @@ double MsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
-bool IsRoom(const std::string& world) { return world.rfind("room-", 0) == 0; }
-
-struct TruthAt {
-  int64_t t_ns = 0;
-  geometry::SE3 T_world_body;
-};
-
 struct PendingPose {
   int64_t arrival_ns = 0;
   control::PoseMeasurement pose;
 };
-
-// The vehicle, its IMU and (for `contest` / `truth`) its pose sensor for a mission; a `vo`
-// mission's sensor never delivers (the VO is the pose source).
-dataset::FlightTask MissionFlightTask(const dataset::MissionSpec& mission,
-                                      const LockstepOptions& options) {
-  dataset::FlightTask task;
-  task.name = "mission " + mission.source;
-  task.kind = dataset::FlightTaskKind::kWaypoints;
-  task.duration_s = 7200;
-  task.spawn_position = mission.start + Eigen::Vector3d(0, 0, 0.08);
-  task.ground_z_m = mission.start.z();
-  task.takeoff_position = mission.start + Eigen::Vector3d(0, 0, mission.altitude_m);
-  task.goals = {dataset::FlightGoal{0.0, task.takeoff_position, 0.0}};
-  task.imu.rate_hz = options.imu_rate_hz;
-  task.vehicle_radius_m = 0.35;
-  dataset::FlightPoseSensorSpec sensor;  // the contest's by default
-  if (options.pose_source == PoseSource::kTruth) {
-    sensor.rate_hz = options.camera_rate_hz;
-    sensor.delay_s = 0;
-    sensor.position_sigma_m = 0;
-    sensor.orientation_sigma_rad = 0;
-    sensor.mount_xyz_m.setZero();
-    sensor.mount_rpy_rad.setZero();
-  } else if (options.pose_source == PoseSource::kVo) {
-    sensor.active_from_s = task.duration_s - 1;  // never within a mission
-  }
-  task.pose_sensors = {sensor};
-  return task;
-}
-
-// The flight software for the task, its estimator fed by the mission's pose source.
-control::AutopilotOptions MissionAutopilotOptions(const dataset::FlightTask& task,
-                                                  const LockstepOptions& options,
-                                                  const geometry::SE3& T_vehicle_rig) {
-  control::AutopilotOptions ap = eval::AutopilotOptionsForTask(task, options.controller);
-  if (options.pose_source == PoseSource::kVo) {
-    control::PoseSourceOptions vo;
-    vo.rate_hz = options.camera_rate_hz;
-    vo.position_sigma_m = options.vo_position_sigma_m;
-    vo.orientation_sigma_rad = options.vo_orientation_sigma_rad;
-    vo.T_body_sensor = T_vehicle_rig;
-    ap.estimator.sources = {vo};
-    ap.estimator.buffer_s = std::max(1.0, 2 * options.vo_latency_s + 0.2);
-  }
-  ap.estimator.pose_gate_m = options.pose_gate_m;
-  ap.estimator.pose_gate_rad = options.pose_gate_rad;
-  // The mission's health logic holds at 1 s and lands at 3 s (at a free column, on the IMU);
-  // the autopilot's own failsafe (a level descent where it is) is the last resort behind it,
-  // for a mission that stopped commanding.
-  ap.pose_timeout_s = 20.0;
-  return ap;
-}
-
-planning::SpeedLimits WorldSpeedLimits(bool room) {
-  planning::SpeedLimits limits;
-  limits.max_speed_mps = room ? 1.0 : 3.0;
-  limits.max_acceleration_mps2 = room ? 1.0 : 2.0;
-  limits.max_lateral_acceleration_mps2 = room ? 1.0 : 2.0;
-  limits.max_jerk_mps3 = room ? 3.0 : 5.0;
-  return limits;
-}
 
 }  // namespace
 
@@ -222,7 +89,7 @@ struct LockstepDriver::Impl {
   std::shared_ptr<const sim::World> world;
   std::unique_ptr<sim::FlightSimulation> sim;
   std::unique_ptr<control::Autopilot> ap;
-  std::unique_ptr<sim::StereoRigRenderer> rig;
+  std::unique_ptr<VehicleCamera> camera;  // vision in the loop (pose source vo)
   std::unique_ptr<localization::RigOdometry> vo;
   geometry::SE3 T_vehicle_rig;
   Eigen::Matrix3d R_rig_vehicle;
@@ -236,20 +103,15 @@ struct LockstepDriver::Impl {
   int64_t next_build_ns = 0;
   uint64_t map_version = 0;
   std::shared_ptr<const planning::Roadmap> roadmap;
-  planning::SpeedLimits limits;
+  MissionPlanning planning;
 
   const sim::FlightStep* out = nullptr;
-  std::deque<TruthAt> truth;  // the last ~0.2 s, for the shutter's poses
   std::deque<PendingPose> pending;
-  int64_t frame_period_ns = 0;
-  int64_t next_frame = 0;  // index of the next frame to capture
   bool vo_down = false;
   bool vo_restarts = false;  // the current outage ends with a restarted localization
   bool vo_needs_seed = false;
   std::string vo_state = "starting";
-  int64_t next_record_ns = 0;
-  int64_t record_period_ns = 0;
-  std::vector<FlightSample> record;
+  std::unique_ptr<FlightRecorder> recorder;
   Eigen::Vector3d last_p = Eigen::Vector3d::Zero();
   LockstepStats stats;
   RuntimeWindow render_ms{100000}, vo_ms{100000}, plan_ms{10000}, map_build_ms{10000};
@@ -271,19 +133,16 @@ struct LockstepDriver::Impl {
   void StepOnce();
   void Capture(int64_t frame);
   bool InOutage(int64_t t_ns, bool* restart) const;
-  geometry::SE3 TruthBetween(int64_t t_ns) const;
 };
 
 LockstepDriver::LockstepDriver(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 LockstepDriver::~LockstepDriver() = default;
 
 Status LockstepDriver::Impl::BuildPlanning(const ProgressCallback& progress) {
-  const bool room = IsRoom(mission.world);
-  const double resolution =
-      options.map_resolution_m > 0 ? options.map_resolution_m : (room ? 0.05 : 0.25);
-  limits = options.limits.value_or(WorldSpeedLimits(room));
+  planning = MissionPlanningFor(mission, preset, options.planning, options.vehicle.seed,
+                                /*unknown_is_free=*/options.map_source == MapSource::kOnline);
   if (progress) progress("ground-truth map", 0.0);
-  truth_grid = sim::ComputeOccupancy(*world, resolution);
+  truth_grid = sim::ComputeOccupancy(*world, planning.map_resolution_m);
   if (options.map_source == MapSource::kGroundTruth) {
     return LoadPlanningMap(truth_grid, "ground-truth occupancy", progress);
   }
@@ -309,33 +168,14 @@ void LockstepDriver::Impl::AddGroundPrior(dataset::OccupancyGrid* grid) const {
 Status LockstepDriver::Impl::LoadPlanningMap(const dataset::OccupancyGrid& grid,
                                              const std::string& what,
                                              const ProgressCallback& progress) {
-  const bool room = IsRoom(mission.world);
   MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(grid));
-  planning::MapOptions map_options;
-  map_options.robot_radius_m =
-      options.robot_radius_m > 0 ? options.robot_radius_m : (room ? 0.4 : 0.8);
-  // Unknown space: an obstacle in the exact map (there is none inside the world); free in the
-  // online map, where the forward camera has not seen most of the volume yet: legs are planned
-  // through it and re-checked, and re-planned, as the map fills in (mission.h).
-  map_options.unknown_space = options.map_source == MapSource::kOnline
-                                  ? planning::UnknownSpace::kFree
-                                  : planning::UnknownSpace::kObstacle;
-  // The preset's flight volume down to the ground (landings descend through it).
-  Eigen::Vector3d volume_min = preset.flight_bounds.min();
-  volume_min.z() = std::min(volume_min.z(), mission.start.z());
-  map_options.planning_bounds = planning::Box{volume_min, preset.flight_bounds.max()};
   MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(bt, mission.world + " " + what,
-                                                             map_options, {}, progress));
-  planning::RoadmapOptions roadmap_options;
-  roadmap_options.max_milestones =
-      options.roadmap_milestones > 0 ? options.roadmap_milestones : (room ? 20'000 : 60'000);
-  roadmap_options.seed = options.seed;
-  roadmap_options.validity_resolution_m = std::min(grid.resolution(), 0.05);
-  MAV_ASSIGN_OR_RETURN(roadmap, planning::Roadmap::Build(*map, roadmap_options, {}, progress));
+                                                             planning.map, {}, progress));
+  MAV_ASSIGN_OR_RETURN(roadmap, planning::Roadmap::Build(*map, planning.roadmap, {}, progress));
   planning_grid = grid;
   std::ostringstream description;
   description << what << " of " << mission.world << " at " << grid.resolution()
-              << " m, robot radius " << map_options.robot_radius_m << " m, "
+              << " m, robot radius " << planning.map.robot_radius_m << " m, "
               << roadmap->info().milestones << " roadmap milestones";
   stats.map_description = description.str();
   return Status::Ok();
@@ -371,41 +211,33 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
   Impl& s = *impl;
   s.mission = mission;
   s.options = options;
-  Result<sim::Preset> preset = sim::MakePreset(mission.world);
-  if (!preset.ok()) {
-    return Status::InvalidArgument(mission.source + ": world: " + preset.status().message());
-  }
-  s.preset = *std::move(preset);
-  s.preset.world->BuildTextures(options.seed);
+  MAV_ASSIGN_OR_RETURN(MissionWorld mission_world, MakeMissionWorld(mission, options.vehicle.seed));
+  s.preset = std::move(mission_world.preset);
   s.world = s.preset.world;
 
   // The vehicle and its flight software.
-  const dataset::FlightTask task = MissionFlightTask(mission, options);
-  MAV_ASSIGN_OR_RETURN(
-      sim::FlightSimulation flight,
-      sim::FlightSimulation::Create(
-          task, options.seed, {},
-          std::shared_ptr<const sim::CollisionWorld>(
-              sim::MakePrimitiveCollisionWorldAboveGround(*s.world, mission.start.z()))));
+  const VehicleOptions& vehicle = options.vehicle;
+  const dataset::FlightTask task = MissionFlightTask(mission, vehicle);
+  MAV_ASSIGN_OR_RETURN(sim::FlightSimulation flight,
+                       sim::FlightSimulation::Create(task, options.vehicle.seed, {},
+                                                     std::move(mission_world.collision)));
   s.sim = std::make_unique<sim::FlightSimulation>(std::move(flight));
   s.out = &s.sim->Initial();
   s.last_p = s.out->truth.p_world;
-  s.T_vehicle_rig = VehicleRigMount(options.camera_pitch_rad);
+  s.T_vehicle_rig = VehicleRigMount(options.vehicle.camera_pitch_rad);
   s.R_rig_vehicle = s.T_vehicle_rig.Rotation().toRotationMatrix().transpose();
-  MAV_ASSIGN_OR_RETURN(
-      control::Autopilot autopilot,
-      control::Autopilot::Create(MissionAutopilotOptions(task, options, s.T_vehicle_rig)));
+  MAV_ASSIGN_OR_RETURN(control::Autopilot autopilot,
+                       control::Autopilot::Create(MissionAutopilotOptions(task, vehicle)));
   s.ap = std::make_unique<control::Autopilot>(std::move(autopilot));
 
   // Vision in the loop.
-  if (options.pose_source == PoseSource::kVo) {
-    const camera::StereoCalibration calibration = camera::EurocStereoCalibration();
-    s.rig = std::make_unique<sim::StereoRigRenderer>(s.world, calibration, s.preset.effects,
-                                                     options.seed, s.preset.min_clearance);
+  if (options.vehicle.pose_source == PoseSource::kVo) {
+    const sim::MulticopterState& x0 = s.out->truth;
+    s.camera = std::make_unique<VehicleCamera>(s.preset, vehicle, s.sim->step_ns(), s.out->t_ns,
+                                               geometry::SE3(x0.q_world_body, x0.p_world));
     localization::RigOdometryOptions vo;
     vo.method = options.vo_method;
-    vo.calibration = calibration;
-    const sim::MulticopterState& x0 = s.out->truth;
+    vo.calibration = s.camera->calibration();
     vo.T_world_body0 = geometry::SE3(x0.q_world_body, x0.p_world) * s.T_vehicle_rig;
     MAV_ASSIGN_OR_RETURN(s.vo, localization::RigOdometry::Create(vo));
   }
@@ -417,8 +249,7 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
                          mapping::MappingPipeline::Create(s.vo->rig(), mapping_options));
     s.mapper = std::make_unique<mapping::MappingPipeline>(std::move(mapper));
   }
-  s.frame_period_ns = PeriodNs(options.camera_rate_hz);
-  s.record_period_ns = PeriodNs(options.record_rate_hz);
+  s.recorder = std::make_unique<FlightRecorder>(options.record_rate_hz);
 
   MAV_RETURN_IF_ERROR(s.BuildPlanning(progress));
   s.stats.setup_s = MsSince(setup_start) / 1000.0;
@@ -436,28 +267,8 @@ bool LockstepDriver::Impl::InOutage(int64_t t_ns, bool* restart) const {
   return false;
 }
 
-geometry::SE3 LockstepDriver::Impl::TruthBetween(int64_t t_ns) const {
-  // The two recorded states around t_ns (the deque is in time order), interpolated.
-  const TruthAt* a = &truth.front();
-  const TruthAt* b = &truth.back();
-  for (size_t i = 1; i < truth.size(); ++i) {
-    if (truth[i].t_ns >= t_ns) {
-      a = &truth[i - 1];
-      b = &truth[i];
-      break;
-    }
-  }
-  if (t_ns <= a->t_ns || b->t_ns == a->t_ns) return a->T_world_body;
-  if (t_ns >= b->t_ns) return b->T_world_body;
-  const double u = static_cast<double>(t_ns - a->t_ns) / static_cast<double>(b->t_ns - a->t_ns);
-  const Eigen::Vector3d p =
-      (1 - u) * a->T_world_body.Translation() + u * b->T_world_body.Translation();
-  const Eigen::Quaterniond q = a->T_world_body.Rotation().slerp(u, b->T_world_body.Rotation());
-  return geometry::SE3(q, p);
-}
-
 void LockstepDriver::Impl::Capture(int64_t frame) {
-  const int64_t t_ns = frame * frame_period_ns;
+  const int64_t t_ns = camera->FrameTimeNs(frame);
   bool restart = false;
   if (InOutage(t_ns, &restart)) {
     if (!vo_down) {
@@ -482,10 +293,7 @@ void LockstepDriver::Impl::Capture(int64_t frame) {
   }
   cv::Mat left, right;
   const auto render_start = Clock::now();
-  rig->Render(
-      frame, NsToSeconds(t_ns),
-      [&](double dt_s) { return TruthBetween(t_ns + SecondsToNs(dt_s)) * T_vehicle_rig; }, &left,
-      &right);
+  camera->Render(frame, &left, &right);
   render_ms.Add(MsSince(render_start));
   ++stats.frames;
   const auto vo_start = Clock::now();
@@ -505,11 +313,11 @@ void LockstepDriver::Impl::Capture(int64_t frame) {
   ++stats.vo_tracked;
   vo_state = localization::ReportedStateName(pose->state);
   if (mapper && pose->state == localization::ReportedState::kOk) {
-    const geometry::SE3 T_world_rig_true = TruthBetween(t_ns) * T_vehicle_rig;
+    const geometry::SE3 T_world_rig_true = camera->TrueRigPose(t_ns);
     if (!MapFrame(left, right, pose->T_world_out, T_world_rig_true).ok()) ++stats.map_errors;
   }
   PendingPose p;
-  p.arrival_ns = t_ns + SecondsToNs(options.vo_latency_s);
+  p.arrival_ns = t_ns + SecondsToNs(options.vehicle.vo_latency_s);
   p.pose = control::PoseMeasurement{t_ns, 0, pose->T_world_out};
   pending.push_back(p);
 }
@@ -541,30 +349,13 @@ void LockstepDriver::Impl::StepOnce() {
   const control::ImuMeasurement imu{out->imu.t_ns, out->imu.gyro, out->imu.accel};
   if (vo) vo->AddGyro(imu.t_ns, R_rig_vehicle * imu.gyro);
   const control::RotorVector& command = ap->FeedImu(imu);
-  if (out->t_ns >= next_record_ns && ap->estimator().initialized()) {
-    next_record_ns = (out->t_ns / record_period_ns + 1) * record_period_ns;
-    FlightSample r;
-    r.t_s = NsToSeconds(out->t_ns);
-    r.p_true = out->truth.p_world;
-    r.q_true = out->truth.q_world_body;
-    r.v_true = out->truth.v_world;
-    r.omega_true = out->truth.omega_body;
-    const control::EstimatorState& e = ap->estimator().state();
-    r.p_est = e.p_world;
-    r.q_est = e.q_world_body;
-    r.armed = ap->armed();
-    record.push_back(r);
-  }
   out = &sim->Step(command);  // control:: and sim::RotorVector are one Eigen type
   stats.path_m += (out->truth.p_world - last_p).norm();
   last_p = out->truth.p_world;
-  truth.push_back({out->t_ns, geometry::SE3(out->truth.q_world_body, out->truth.p_world)});
-  while (truth.size() > 64) truth.pop_front();
   // A frame is rendered once the state over its shutter is known (one step after capture).
-  if (vo) {
-    const int64_t shutter_half_ns =
-        SecondsToNs(std::max(0.0, rig->effects().shutter_s) / 2) + sim->step_ns() / 2;
-    while (next_frame * frame_period_ns + shutter_half_ns <= out->t_ns) Capture(next_frame++);
+  if (camera) {
+    camera->Observe(out->t_ns, geometry::SE3(out->truth.q_world_body, out->truth.p_world));
+    for (const int64_t frame : camera->DueFrames()) Capture(frame);
   }
   // The online map is rebuilt every map_rebuild_s while new keyframes come (in the vehicle's
   // time: the build's wall time is measured, the lock-step clock waits for it).
@@ -576,10 +367,6 @@ void LockstepDriver::Impl::StepOnce() {
 
 Result<VehicleView> LockstepDriver::Advance(double dt_s) {
   Impl& s = *impl_;
-  if (s.truth.empty()) {
-    s.truth.push_back(
-        {s.out->t_ns, geometry::SE3(s.out->truth.q_world_body, s.out->truth.p_world)});
-  }
   const int64_t until = s.out->t_ns + SecondsToNs(dt_s);
   while (s.out->t_ns < until) {
     if (s.sim->done()) return Status::DeadlineExceeded("the simulation reached its 7200 s limit");
@@ -588,6 +375,7 @@ Result<VehicleView> LockstepDriver::Advance(double dt_s) {
   VehicleView v;
   v.t_ns = s.out->t_ns;
   v.armed = s.ap->armed();
+  v.estimator_initialized = s.ap->estimator().initialized();
   v.estimator_converged = s.ap->estimator().converged();
   v.mode = s.ap->mode();
   v.moving = s.ap->moving();
@@ -601,11 +389,13 @@ Result<VehicleView> LockstepDriver::Advance(double dt_s) {
   v.pose_age_s = s.ap->estimator().initialized() ? NsToSeconds(s.out->t_ns - last)
                                                  : std::numeric_limits<double>::infinity();
   v.localization_needs_seed = s.vo_needs_seed;
-  v.localization_state = s.vo ? s.vo_state : PoseSourceName(s.options.pose_source);
+  v.localization_state = s.vo ? s.vo_state : PoseSourceName(s.options.vehicle.pose_source);
   v.poses_rejected = s.ap->estimator().counters().poses_rejected;
   v.collisions = s.sim->collision_count();
   v.map_version = s.map_version;
-  v.p_true = s.out->truth.p_world;
+  v.truth = TrueState{s.out->truth.p_world, s.out->truth.q_world_body, s.out->truth.v_world,
+                      s.out->truth.omega_body};
+  s.recorder->Offer(v);
   return v;
 }
 
@@ -636,9 +426,9 @@ Result<LegPlan> LockstepDriver::Plan(const Eigen::Vector3d& start, const Eigen::
   planning::PlanRequest request;
   request.start = start;
   request.goal = goal;
-  request.limits = s.limits;
+  request.limits = s.planning.limits;
   request.start_yaw_rad = yaw_rad;
-  request.seed = s.options.seed;
+  request.seed = s.options.vehicle.seed;
   Result<planning::PlanResult> result = planning::PlanPath(*s.map, s.roadmap.get(), request);
   s.plan_ms.Add(MsSince(plan_start));
   ++s.stats.plans;
@@ -660,53 +450,11 @@ Result<LegPlan> LockstepDriver::Plan(const Eigen::Vector3d& start, const Eigen::
 }
 
 Status LockstepDriver::CheckPoint(const Eigen::Vector3d& p) {
-  const planning::PlanningMap& map = *impl_->map;
-  char why[200];
-  if (!map.bounds().Contains(p)) {
-    const planning::Box& b = map.bounds();
-    std::snprintf(why, sizeof(why),
-                  "outside the planning volume [%.1f, %.1f] x [%.1f, %.1f] x [%.1f, %.1f] m",
-                  b.min.x(), b.max.x(), b.min.y(), b.max.y(), b.min.z(), b.max.z());
-    return Status::InvalidArgument(why);
-  }
-  if (!map.HasClearance(p, map.robot_radius())) {
-    std::snprintf(why, sizeof(why),
-                  "%.2f m from an obstacle, closer than the vehicle's radius %.2f m (%s)",
-                  map.Clearance(p), map.robot_radius(), impl_->stats.map_description.c_str());
-    return Status::InvalidArgument(why);
-  }
-  return Status::Ok();
+  return CheckPointInMap(*impl_->map, p, impl_->stats.map_description);
 }
 
 Result<Eigen::Vector3d> LockstepDriver::LandingSpot(const Eigen::Vector3d& above) {
-  const planning::PlanningMap& map = *impl_->map;
-  // The robot radius plus room for the estimate's drift on the IMU alone.
-  const double radius = map.robot_radius() + 0.1;
-  const double lowest = impl_->mission.start.z() + radius + 0.05;
-  auto column_free = [&](const Eigen::Vector3d& top) {
-    for (double z = top.z(); z > lowest; z -= 0.05) {
-      if (!map.HasClearance({top.x(), top.y(), z}, radius)) return false;
-    }
-    return map.HasClearance({top.x(), top.y(), lowest}, radius);
-  };
-  // Rings of candidates 0.1 m apart, nearest first; the straight move there must be free too.
-  constexpr double kStepM = 0.1, kMaxM = 4.0;
-  for (double r = 0; r <= kMaxM; r += kStepM) {
-    const int n = r == 0 ? 1 : static_cast<int>(std::ceil(2 * M_PI * r / kStepM));
-    for (int i = 0; i < n; ++i) {
-      const double a = 2 * M_PI * i / n;
-      const Eigen::Vector3d p = above + Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0);
-      if (!column_free(p)) continue;
-      // The move there keeps the robot radius (from 0.1 m on: the vehicle may be holding
-      // closer than that to something).
-      bool path_free = true;
-      for (double u = 0.1; u <= r && path_free; u += 0.05) {
-        path_free = map.HasClearance(above + (p - above) * (u / r), map.robot_radius());
-      }
-      if (path_free) return p;
-    }
-  }
-  return Status::NotFound("no free landing column within 4 m of the vehicle");
+  return LandingSpotInMap(*impl_->map, above, impl_->mission.start.z());
 }
 
 Status LockstepDriver::SeedLocalization(const geometry::SE3& T_world_body) {
@@ -718,7 +466,9 @@ Status LockstepDriver::SeedLocalization(const geometry::SE3& T_world_body) {
   return Status::Ok();
 }
 
-const std::vector<FlightSample>& LockstepDriver::record() const { return impl_->record; }
+const std::vector<FlightSample>& LockstepDriver::record() const {
+  return impl_->recorder->samples();
+}
 
 LockstepStats LockstepDriver::stats() const {
   LockstepStats st = impl_->stats;

@@ -458,7 +458,7 @@ class Runner {
     g.visited = true;
     g.reached_at_s = t_;
     g.estimate_error_m = (v_.p_est - g.goal).norm();
-    if (v_.p_true) g.error_m = (*v_.p_true - g.goal).norm();
+    if (v_.truth) g.error_m = (v_.truth->p_world - g.goal).norm();
     g.reached = (g.error_m >= 0 ? g.error_m : g.estimate_error_m) <= o_.goal_tolerance_m;
     char what[160];
     std::snprintf(what, sizeof(what), "goal %d of %zu %s: error %.3f m (estimate %.3f m)",

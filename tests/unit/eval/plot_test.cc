@@ -1,8 +1,8 @@
-// mav-eval's top-view plot (clients/mav-eval/plot.cc): bounded work whatever the positions
+// mav-eval's top-view plot (clients/plot/plot.cc): bounded work whatever the positions
 // (defect 1 of issue 8: one huge ground-truth position made it draw a grid line every 5 m across
 // the whole span, i.e. forever).
 
-#include "clients/mav-eval/plot.h"
+#include "clients/plot/plot.h"
 
 #include <unistd.h>
 
@@ -16,7 +16,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-namespace mav::eval_cli {
+namespace mav::plot {
 namespace {
 
 class PlotTest : public ::testing::Test {
@@ -92,4 +92,4 @@ TEST_F(PlotTest, NormalPlotIsUnchangedInShape) {
 }
 
 }  // namespace
-}  // namespace mav::eval_cli
+}  // namespace mav::plot

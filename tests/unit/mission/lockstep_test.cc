@@ -66,7 +66,7 @@ std::string Events(const MissionReport& r) {
 
 TEST(LockstepMissionTest, FliesARoomMissionOnItsOwnEyesAndRepeatsItExactly) {
   LockstepOptions options;
-  options.seed = 3;
+  options.vehicle.seed = 3;
   const Flown a = Fly(ShortRoomMission(), options);
   ASSERT_EQ(a.report.outcome, MissionOutcome::kCompleted) << a.report.error << "\n"
                                                           << Events(a.report);
@@ -96,7 +96,7 @@ TEST(LockstepMissionTest, FliesARoomMissionOnItsOwnEyesAndRepeatsItExactly) {
 TEST(LockstepMissionTest, RestartedLocalizationIsReseededAndTheMissionCompletes) {
   if (test_support::kUnderAddressSanitizer) GTEST_SKIP() << "two more flights: Release only";
   LockstepOptions options;
-  options.seed = 3;
+  options.vehicle.seed = 3;
   // Down for 2 s mid-leg, back without a reference (a restarted service).
   options.outages.push_back({12.0, 2.0, true});
   const Flown f = Fly(ShortRoomMission(), options);
@@ -115,7 +115,7 @@ TEST(LockstepMissionTest, RestartedLocalizationIsReseededAndTheMissionCompletes)
 TEST(LockstepMissionTest, LongLocalizationLossLandsAtAFreeColumn) {
   if (test_support::kUnderAddressSanitizer) GTEST_SKIP() << "another flight: Release only";
   LockstepOptions options;
-  options.seed = 3;
+  options.vehicle.seed = 3;
   options.outages.push_back({12.0, 6.0, true});
   const Flown f = Fly(ShortRoomMission(), options);
   EXPECT_EQ(f.report.outcome, MissionOutcome::kLandedOnFault) << Events(f.report);
@@ -150,7 +150,7 @@ TEST(LockstepMissionTest, OnlineMapIsBuiltFromTheFlightsKeyframes) {
   if (test_support::kUnderAddressSanitizer) GTEST_SKIP() << "another flight: Release only";
   dataset::MissionSpec mission = ShortRoomMission();
   LockstepOptions options;
-  options.seed = 3;
+  options.vehicle.seed = 3;
   options.map_source = MapSource::kOnline;
   Result<std::unique_ptr<LockstepDriver>> driver = LockstepDriver::Create(mission, options);
   ASSERT_TRUE(driver.ok()) << driver.status().ToString();
@@ -172,7 +172,7 @@ TEST(LockstepMissionTest, OnlineMapIsBuiltFromTheFlightsKeyframes) {
   const std::string path = ::testing::TempDir() + "/online_map.bt";
   ASSERT_TRUE((*driver)->WriteMap(path).ok());
   LockstepOptions vo_less;
-  vo_less.pose_source = PoseSource::kContest;
+  vo_less.vehicle.pose_source = PoseSource::kContest;
   vo_less.map_source = MapSource::kOnline;
   const Result<std::unique_ptr<LockstepDriver>> refused = LockstepDriver::Create(mission, vo_less);
   ASSERT_FALSE(refused.ok());
@@ -206,7 +206,7 @@ TEST(LockstepMissionTest, HoverScoreIsTheRmsOverTheSettledWindow) {
 TEST(LockstepMissionTest, InvalidOptionsNameTheField) {
   dataset::MissionSpec mission = ShortRoomMission();
   LockstepOptions options;
-  options.vo_latency_s = -1;
+  options.vehicle.vo_latency_s = -1;
   Result<std::unique_ptr<LockstepDriver>> driver = LockstepDriver::Create(mission, options);
   ASSERT_FALSE(driver.ok());
   EXPECT_NE(driver.status().message().find("vo_latency_s"), std::string::npos);

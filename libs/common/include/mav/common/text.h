@@ -24,4 +24,9 @@ namespace mav {
 //           QuoteForError(std::string(10000, 'x'), 3) == "'xxx...' (10000 bytes)".
 std::string QuoteForError(std::string_view value, size_t max_chars = 64);
 
+// A JSON string literal (quotes, backslashes and control characters escaped).
+std::string JsonQuote(const std::string& s);
+// A JSON number: integers exactly, others to 6 significant digits; null for NaN or infinity.
+std::string JsonNumber(double v);
+
 }  // namespace mav

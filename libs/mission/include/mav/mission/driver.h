@@ -22,10 +22,19 @@
 
 namespace mav::mission {
 
+// The true state of a simulated vehicle (for scoring, never for decisions).
+struct TrueState {
+  Eigen::Vector3d p_world = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_world_body = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d v_world = Eigen::Vector3d::Zero();
+  Eigen::Vector3d omega_body = Eigen::Vector3d::Zero();
+};
+
 // The vehicle as the mission sees it after an Advance.
 struct VehicleView {
   int64_t t_ns = 0;  // the vehicle's clock (simulated time in a simulation)
   bool armed = false;
+  bool estimator_initialized = false;  // the estimate below means something
   bool estimator_converged = false;
   control::FlightMode mode = control::FlightMode::kDisarmed;
   bool moving = false;  // a commanded move or trajectory is still being flown
@@ -38,11 +47,11 @@ struct VehicleView {
   // The localization runs but has no reference pose (a restarted service): the mission seeds it
   // from the estimate with SeedLocalization.
   bool localization_needs_seed = false;
-  std::string localization_state;         // "ok", "lost", "down", ... (for the progress line)
-  uint64_t poses_rejected = 0;            // by the estimator's gate, since the start
-  int64_t collisions = 0;                 // contacts with the world so far (a simulator knows them)
-  uint64_t map_version = 0;               // changes whenever the planner's map changed
-  std::optional<Eigen::Vector3d> p_true;  // ground truth, where a simulator gives it
+  std::string localization_state;  // "ok", "lost", "down", ... (for the progress line)
+  uint64_t poses_rejected = 0;     // by the estimator's gate, since the start
+  int64_t collisions = 0;          // contacts with the world so far (a simulator knows them)
+  uint64_t map_version = 0;        // changes whenever the planner's map changed
+  std::optional<TrueState> truth;  // ground truth, where a simulator gives it
 };
 
 // One planned leg.

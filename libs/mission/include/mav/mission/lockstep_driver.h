@@ -38,6 +38,10 @@
 #include "mav/localization/odometry.h"
 #include "mav/mission/driver.h"
 #include "mav/mission/mission.h"
+#include "mav/mission/planning_setup.h"
+#include "mav/mission/record.h"
+#include "mav/mission/report.h"
+#include "mav/mission/vehicle.h"
 #include "mav/planning/trajectory.h"
 
 namespace mav::sim {
@@ -49,14 +53,6 @@ class PlanningMap;
 }
 
 namespace mav::mission {
-
-enum class PoseSource {
-  kContest,  // the EuRoC 2014 contest's synthetic pose sensor (10 Hz, 100 ms late, noisy)
-  kVo,       // stereo VO on the rendered images
-  kTruth,    // the exact pose at camera rate, no delay (debugging only)
-};
-const char* PoseSourceName(PoseSource source);  // "contest", "vo", "truth"
-std::optional<PoseSource> ParsePoseSource(std::string_view name);
 
 // The localization is down over [start_s, start_s + duration_s) of the vehicle's clock (its
 // frames are not processed). With `restart` it comes back as a restarted process would: without
@@ -79,39 +75,17 @@ enum class MapSource {
 const char* MapSourceName(MapSource source);  // "truth", "online"
 std::optional<MapSource> ParseMapSource(std::string_view name);
 
-// The map against the world's exact occupancy (the collision-check protocol of
-// mav/mapping/collision_eval.h, over the volume the keyframes could observe).
-struct MapQuality {
-  double mcc = 0;
-  double missed_percent = 0;  // of the box positions: occupied in truth, free in the map
-  double false_percent = 0;
-  int64_t positions = 0;
-  bool observable_only = false;
-};
-
 struct LockstepOptions {
-  uint64_t seed = 1;
-  PoseSource pose_source = PoseSource::kVo;
+  // The vehicle, its camera and flight software (the simulator service's mission flight takes
+  // the same).
+  VehicleOptions vehicle;
   localization::Method vo_method = localization::Method::kSparseSubpixel;
-  double vo_latency_s = 0.05;
   // After a lost frame the VO restarts at the estimator's pose (false: it goes on from its own
   // last pose, RigOdometry's default, which drops the motion over the lost frames).
   bool reseed_after_loss = true;
-  // The estimator's model of the VO pose noise.
-  double vo_position_sigma_m = 0.01;
-  double vo_orientation_sigma_rad = 0.005;
-  // The camera looks forward, pitched down by this much (LockstepDriver::VehicleRigMount).
-  double camera_pitch_rad = 0;
-  double imu_rate_hz = 200;
-  double camera_rate_hz = 20;
-  control::ControllerType controller = control::ControllerType::kPaper;
-  // The estimator's gate (EstimatorOptions::pose_gate_*) on every source.
-  double pose_gate_m = 0.3;
-  double pose_gate_rad = 0.2;
-  // Planning. 0 = the world's default (rooms / plant): map resolution 0.05 / 0.25 m, robot
-  // radius 0.4 / 0.8 m, roadmap 20 000 / 60 000 milestones.
+  // Planning: the world's defaults unless overridden (planning_setup.h).
   MapSource map_source = MapSource::kGroundTruth;
-  double map_resolution_m = 0;
+  PlanningOverrides planning;
   double map_rebuild_s = 2.0;
   // The online map's stereo points reach this far (their depth noise grows as Z^2: ~0.1 m at
   // 3.5 m on the rig, ~0.5 m at 6 m, which would put phantom surfaces in the room's middle).
@@ -119,36 +93,10 @@ struct LockstepOptions {
   // Points meshed only when this many keyframes saw them (single-view mismatches make phantom
   // surfaces in a map of a few keyframes).
   int map_min_visibility = 2;
-  double robot_radius_m = 0;
-  uint64_t roadmap_milestones = 0;
-  // Unset: the world's default (rooms: 1 m/s, 1 m/s^2; plant: 3 m/s, 2 m/s^2).
-  std::optional<planning::SpeedLimits> limits;
   std::vector<LocalizationOutage> outages;
   double record_rate_hz = 20;
   bool IsValid(std::string* why) const;
 };
-
-// One sample of the flight record (at record_rate_hz).
-struct FlightSample {
-  double t_s = 0;
-  Eigen::Vector3d p_true = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond q_true = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d v_true = Eigen::Vector3d::Zero();
-  Eigen::Vector3d p_est = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond q_est = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d omega_true = Eigen::Vector3d::Zero();
-  bool armed = false;
-};
-
-// The mission's ATE: RMS of |estimate - ground truth| over the samples while armed, without
-// alignment; NaN when none was armed.
-double EstimateRmsError(const std::vector<FlightSample>& record);
-
-// The contest's hover figures (t3_1, mav/eval/contest_score.h) of a goal's hover, from the
-// ground truth: RMS of |p - goal| and of |omega| over [hover_start_s + settle_s, reached_at_s).
-// samples = 0 when the goal was not visited or the window is empty.
-eval::WindowRms ScoreHover(const std::vector<FlightSample>& record, const GoalReport& goal,
-                           double settle_s = 5.0);
 
 struct LockstepStats {
   uint64_t frames = 0;          // stereo pairs rendered
@@ -206,9 +154,6 @@ class LockstepDriver final : public MissionDriver {
   Status WriteMap(const std::string& path) const;
   // That map against the world's exact occupancy.
   Result<MapQuality> EvaluateMap() const;
-  // The vehicle's camera mounting (the rig's body frame in the vehicle's body frame), looking
-  // forward and pitched down by `pitch_down_rad`.
-  static geometry::SE3 VehicleRigMount(double pitch_down_rad);
 
  private:
   struct Impl;

@@ -13,7 +13,7 @@ namespace mav::planning {
 class PlanningMap;
 }
 
-namespace mav::eval_cli {
+namespace mav::plot {
 
 struct PlotSeries {
   std::string label;
@@ -50,4 +50,4 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
                         const std::vector<PlotSeries>& series,
                         const TopViewHeightMap* background = nullptr);
 
-}  // namespace mav::eval_cli
+}  // namespace mav::plot

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "clients/plot/plot.h"
 #include "mav/planning/planning_map.h"
-#include "plot.h"
 
-namespace mav::eval_cli {
+namespace mav::plot {
 
 TopViewHeightMap HeightMapOf(const planning::PlanningMap& map, double z_min_m, double z_max_m) {
   TopViewHeightMap h;
@@ -42,4 +42,4 @@ TopViewHeightMap HeightMapOf(const planning::PlanningMap& map, double z_min_m, d
   return h;
 }
 
-}  // namespace mav::eval_cli
+}  // namespace mav::plot

@@ -1,4 +1,4 @@
-#include "plot.h"
+#include "clients/plot/plot.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace mav::eval_cli {
+namespace mav::plot {
 namespace {
 
 // Points farther out than this are not drawn: no trajectory is that large, a pixel would span
@@ -150,4 +150,4 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
   return Status::Ok();
 }
 
-}  // namespace mav::eval_cli
+}  // namespace mav::plot

@@ -1,0 +1,614 @@
+#include "clients/mavctl/mission_driver.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <thread>
+
+#include <grpcpp/create_channel.h>
+#include <grpcpp/security/credentials.h>
+
+#include "mav/v1/control.grpc.pb.h"
+#include "mav/v1/localization.grpc.pb.h"
+#include "mav/v1/planning.grpc.pb.h"
+#include "mav/v1/simulator.grpc.pb.h"
+
+#include "mav/common/time.h"
+#include "mav/planning/planner.h"
+#include "mav/planning/planning_map.h"
+#include "services/common/grpc_status.h"
+#include "services/common/proto_codec.h"
+#include "services/control/control_core.h"
+#include "services/control/convert.h"
+
+namespace mav::mavctl {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double MsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+constexpr size_t kUploadChunkBytes = 1 << 20;
+// How often Advance asks whether the simulator reached the tick's end.
+constexpr auto kPollPeriod = std::chrono::microseconds(500);
+
+void ToProto(const Eigen::Vector3d& v, v1::Vector3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+Eigen::Vector3d FromProto(const v1::Vector3& v) { return {v.x(), v.y(), v.z()}; }
+Eigen::Quaterniond FromProto(const v1::Quaternion& q) { return {q.w(), q.x(), q.y(), q.z()}; }
+
+control::FlightMode ModeFromProto(v1::ControlMode mode) {
+  switch (mode) {
+    case v1::CONTROL_MODE_HOVER:
+      return control::FlightMode::kHover;
+    case v1::CONTROL_MODE_TRAJECTORY:
+      return control::FlightMode::kTrajectory;
+    case v1::CONTROL_MODE_FAILSAFE:
+      return control::FlightMode::kFailsafe;
+    default:
+      return control::FlightMode::kDisarmed;
+  }
+}
+
+v1::LocalizationMethod MethodToProto(localization::Method method) {
+  switch (method) {
+    case localization::Method::kSparsePixel:
+      return v1::LOCALIZATION_METHOD_SPARSE_PIXEL;
+    case localization::Method::kSparseSubpixel:
+      return v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL;
+    case localization::Method::kDense:
+      return v1::LOCALIZATION_METHOD_DENSE;
+  }
+  return v1::LOCALIZATION_METHOD_UNSPECIFIED;
+}
+
+const char* TrackingName(v1::TrackingState state) {
+  switch (state) {
+    case v1::TRACKING_STATE_INITIALIZING:
+      return "initializing";
+    case v1::TRACKING_STATE_OK:
+      return "ok";
+    case v1::TRACKING_STATE_LOST:
+      return "lost";
+    case v1::TRACKING_STATE_DEGRADED:
+      return "degraded";
+    default:
+      return "starting";
+  }
+}
+
+RuntimeStats StatsFromProto(const v1::RuntimeStats& s) {
+  RuntimeStats out;
+  out.count = s.count();
+  out.mean_ms = s.mean_ms();
+  out.median_ms = s.median_ms();
+  out.p95_ms = s.p95_ms();
+  out.p99_ms = s.p99_ms();
+  out.max_ms = s.max_ms();
+  return out;
+}
+
+}  // namespace
+
+struct ServiceDriver::Impl {
+  dataset::MissionSpec mission;
+  ServiceMissionOptions options;
+  ServiceAddresses addresses;
+  std::unique_ptr<v1::Simulator::Stub> simulator;
+  std::unique_ptr<v1::Localization::Stub> localization;
+  std::unique_ptr<v1::Control::Stub> control;
+  std::unique_ptr<v1::Planning::Stub> planning;
+  mission::MissionPlanning plan_options;
+  geometry::SE3 T_vehicle_rig;
+  std::string map_bt;
+  std::shared_ptr<const planning::PlanningMap> map;
+  std::unique_ptr<mission::FlightRecorder> recorder;
+  int64_t t_ns = 0;
+  bool running = false;
+  ServiceFigures figures;
+  RuntimeWindow plan_ms{10000}, advance_ms{100000};
+
+  bool vo() const { return options.vehicle.pose_source == mission::PoseSource::kVo; }
+
+  // One unary call with the quick deadline (or `timeout_s`); the error names the service, its
+  // address and the RPC.
+  template <typename Call>
+  Status Unary(const char* service, const std::string& address, const char* rpc, Call&& call,
+               double timeout_s = 0) {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() +
+                         std::chrono::milliseconds(static_cast<int64_t>(
+                             1000 * (timeout_s > 0 ? timeout_s : options.rpc_timeout_s))));
+    return service_common::OutgoingCallStatus(
+        call(&context), std::string(service) + " at " + address + ": " + rpc, service);
+  }
+
+  Status LoadFlight(const std::string& mission_yaml, v1::FlightStatus* loaded);
+  Status SetUpPlanning(const std::function<void(const std::string&)>& progress);
+  Status ConfigureControl();
+  Status ConfigureLocalization(const geometry::SE3& T_world_body);
+  Status WaitForDataPlane();
+  Result<v1::FlightStatus> RunUntil(int64_t until_ns);
+};
+
+ServiceDriver::ServiceDriver(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+ServiceDriver::~ServiceDriver() { Stop(); }
+
+Status ServiceDriver::Impl::LoadFlight(const std::string& mission_yaml, v1::FlightStatus* loaded) {
+  v1::LoadFlightTaskRequest request;
+  v1::MissionFlight* m = request.mutable_mission();
+  m->set_yaml(mission_yaml);
+  m->set_source_name(mission.source);
+  m->set_pose_source(mission::PoseSourceName(options.vehicle.pose_source));
+  m->set_camera_pitch_rad(options.vehicle.camera_pitch_rad);
+  m->set_camera_rate_hz(options.vehicle.camera_rate_hz);
+  m->set_imu_rate_hz(options.vehicle.imu_rate_hz);
+  request.set_seed(options.vehicle.seed);
+  request.set_lockstep(true);
+  request.set_lockstep_timeout_s(options.lockstep_timeout_s);
+  return Unary(
+      "mav-simulator", addresses.simulator, "LoadFlightTask",
+      [&](grpc::ClientContext* c) { return simulator->LoadFlightTask(c, request, loaded); },
+      options.setup_timeout_s);
+}
+
+Status ServiceDriver::Impl::SetUpPlanning(const std::function<void(const std::string&)>& progress) {
+  // The world's exact occupancy from the simulator, as the in-process driver computes it.
+  if (progress) progress("ground-truth occupancy from mav-simulator");
+  {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() +
+                         std::chrono::seconds(static_cast<int64_t>(options.setup_timeout_s)));
+    v1::GetGroundTruthOccupancyRequest request;
+    request.set_resolution_m(plan_options.map_resolution_m);
+    request.set_format(v1::OCCUPANCY_FORMAT_OCTOMAP_BT);
+    std::unique_ptr<grpc::ClientReader<v1::OccupancyChunk>> reader =
+        simulator->GetGroundTruthOccupancy(&context, request);
+    v1::OccupancyChunk chunk;
+    while (reader->Read(&chunk)) {
+      if (chunk.chunk().offset() != map_bt.size()) {
+        return Status::DataLoss("mav-simulator at " + addresses.simulator +
+                                ": GetGroundTruthOccupancy: chunk at offset " +
+                                std::to_string(chunk.chunk().offset()) + " after " +
+                                std::to_string(map_bt.size()) + " bytes");
+      }
+      map_bt += chunk.chunk().data();
+    }
+    MAV_RETURN_IF_ERROR(service_common::OutgoingCallStatus(
+        reader->Finish(), "mav-simulator at " + addresses.simulator + ": GetGroundTruthOccupancy",
+        "mav-simulator"));
+  }
+  // The ground station's copy (CheckPoint, LandingSpot) and the planner's, with one set of
+  // options.
+  const std::string name = mission.world + " ground-truth occupancy";
+  MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(map_bt, name, plan_options.map));
+  const planning::MapOptions& mo = plan_options.map;
+  v1::MapOptions map_options;
+  map_options.set_robot_radius_m(mo.robot_radius_m);
+  map_options.set_unknown_is_free(mo.unknown_space == planning::UnknownSpace::kFree);
+  map_options.set_max_distance_m(mo.max_distance_m);
+  ToProto(mo.planning_bounds->min, map_options.mutable_bounds()->mutable_min());
+  ToProto(mo.planning_bounds->max, map_options.mutable_bounds()->mutable_max());
+  if (progress) progress("uploading the map to mav-planning");
+  v1::MapInfo info;
+  MAV_RETURN_IF_ERROR(Unary(
+      "mav-planning", addresses.planning, "UploadMap",
+      [&](grpc::ClientContext* c) {
+        auto writer = planning->UploadMap(c, &info);
+        size_t offset = 0;
+        do {
+          v1::UploadMapRequest message;
+          if (offset == 0) *message.mutable_options() = map_options;
+          const size_t n = std::min(kUploadChunkBytes, map_bt.size() - offset);
+          v1::FileChunk* chunk = message.mutable_chunk();
+          chunk->set_offset(offset);
+          chunk->set_total_size(map_bt.size());
+          chunk->set_data(map_bt.substr(offset, n));
+          offset += n;
+          chunk->set_last(offset == map_bt.size());
+          if (!writer->Write(message)) break;
+        } while (offset < map_bt.size());
+        writer->WritesDone();
+        return writer->Finish();
+      },
+      options.setup_timeout_s));
+  if (progress) progress("building the roadmap in mav-planning");
+  const planning::RoadmapOptions& ro = plan_options.roadmap;
+  v1::BuildRoadmapRequest roadmap;
+  roadmap.set_time_budget_s(ro.time_budget_s);
+  roadmap.set_max_milestones(static_cast<uint32_t>(ro.max_milestones));
+  roadmap.set_seed(ro.seed);
+  roadmap.set_validity_resolution_m(ro.validity_resolution_m);
+  roadmap.set_clearance_margin_m(ro.clearance_margin_m);
+  v1::RoadmapInfo roadmap_info;
+  MAV_RETURN_IF_ERROR(Unary(
+      "mav-planning", addresses.planning, "BuildRoadmap",
+      [&](grpc::ClientContext* c) { return planning->BuildRoadmap(c, roadmap, &roadmap_info); },
+      options.setup_timeout_s));
+  std::ostringstream description;
+  description << "ground-truth occupancy of " << mission.world << " at "
+              << plan_options.map_resolution_m << " m, robot radius " << mo.robot_radius_m << " m, "
+              << roadmap_info.milestones() << " roadmap milestones (mav-planning)";
+  figures.map_description = description.str();
+  return Status::Ok();
+}
+
+Status ServiceDriver::Impl::ConfigureControl() {
+  control_service::ControlConfig config;
+  const dataset::FlightTask task = mission::MissionFlightTask(mission, options.vehicle);
+  config.autopilot = mission::MissionAutopilotOptions(task, options.vehicle);
+  config.lockstep = true;
+  if (vo()) {
+    // The localization service's pose of its "body" (the rig), merged at stamp + the modelled
+    // latency as the in-process driver merges it.
+    config.pose_frames = {"body"};
+    control_service::LockstepPoseOptions lockstep;
+    lockstep.latency_s = options.vehicle.vo_latency_s;
+    lockstep.wait_s = options.lockstep_wait_s;
+    config.lockstep_poses = {lockstep};
+  } else {
+    config.pose_frames = {"pose_sensor0"};
+  }
+  v1::ControlConfigureRequest request;
+  control_service::ToProto(config, &request);
+  v1::ControlStatus status;
+  v1::DisarmRequest disarm;
+  MAV_RETURN_IF_ERROR(
+      Unary("mav-control", addresses.control, "Disarm",
+            [&](grpc::ClientContext* c) { return control->Disarm(c, disarm, &status); }));
+  return Unary("mav-control", addresses.control, "Configure",
+               [&](grpc::ClientContext* c) { return control->Configure(c, request, &status); });
+}
+
+Status ServiceDriver::Impl::ConfigureLocalization(const geometry::SE3& T_world_body) {
+  v1::LocalizationConfigureRequest request;
+  request.set_method(MethodToProto(options.vo_method));
+  request.mutable_calibration()->set_simulator_address(addresses.simulator);
+  service_common::ToProto(T_world_body * T_vehicle_rig, request.mutable_initial_pose());
+  request.set_output_frame("body");
+  v1::LocalizationStatus status;
+  return Unary(
+      "mav-localization", addresses.localization, "Configure",
+      [&](grpc::ClientContext* c) { return localization->Configure(c, request, &status); });
+}
+
+Status ServiceDriver::Impl::WaitForDataPlane() {
+  // DDS discovery: the simulator's first step waits for a controller itself; the camera's first
+  // frame must find the localization's reader, and its pose mav-control's.
+  const auto give_up = Clock::now() + std::chrono::seconds(10);
+  while (true) {
+    v1::FlightStatus status;
+    v1::GetFlightStatusRequest request;
+    MAV_RETURN_IF_ERROR(Unary(
+        "mav-simulator", addresses.simulator, "GetFlightStatus",
+        [&](grpc::ClientContext* c) { return simulator->GetFlightStatus(c, request, &status); }));
+    if (status.actuator_writers() > 0 && (!vo() || status.stereo_subscribers() > 0)) break;
+    if (Clock::now() > give_up) {
+      return Status::Unavailable(
+          "DDS: after 10 s mav-simulator sees " + std::to_string(status.actuator_writers()) +
+          " actuator writers and " + std::to_string(status.stereo_subscribers()) +
+          " stereo readers (mav-control and mav-localization on DDS domain " +
+          std::to_string(status.dds_domain()) + "?)");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  // The localization's pose writer and the controller's reader match in the same round.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  return Status::Ok();
+}
+
+Result<std::unique_ptr<ServiceDriver>> ServiceDriver::Create(
+    const dataset::MissionSpec& mission, const std::string& mission_yaml,
+    const ServiceMissionOptions& options, const ServiceAddresses& addresses,
+    const std::function<void(const std::string&)>& progress) {
+  const auto setup_start = Clock::now();
+  if (std::string why; !options.vehicle.IsValid(&why)) return Status::InvalidArgument(why);
+  if (std::string why; !options.planning.IsValid(&why)) {
+    return Status::InvalidArgument("planning." + why);
+  }
+  auto impl = std::make_unique<Impl>();
+  Impl& s = *impl;
+  s.mission = mission;
+  s.options = options;
+  s.addresses = addresses;
+  auto channel = [](const std::string& address) {
+    return grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
+  };
+  s.simulator = v1::Simulator::NewStub(channel(addresses.simulator));
+  s.control = v1::Control::NewStub(channel(addresses.control));
+  s.planning = v1::Planning::NewStub(channel(addresses.planning));
+  if (s.vo()) s.localization = v1::Localization::NewStub(channel(addresses.localization));
+  s.T_vehicle_rig = mission::VehicleRigMount(options.vehicle.camera_pitch_rad);
+  s.recorder = std::make_unique<mission::FlightRecorder>(options.record_rate_hz);
+  MAV_ASSIGN_OR_RETURN(mission::MissionWorld world, mission::MakeMissionWorld(mission, 0));
+  s.plan_options = mission::MissionPlanningFor(mission, world.preset, options.planning,
+                                               options.vehicle.seed, /*unknown_is_free=*/false);
+
+  if (progress) progress("loading the mission flight into mav-simulator");
+  v1::FlightStatus loaded;
+  MAV_RETURN_IF_ERROR(s.LoadFlight(mission_yaml, &loaded));
+  s.t_ns = loaded.t_ns();
+  MAV_RETURN_IF_ERROR(s.SetUpPlanning(progress));
+  if (progress) progress("configuring mav-control and mav-localization");
+  MAV_RETURN_IF_ERROR(s.ConfigureControl());
+  if (s.vo()) {
+    MAV_ASSIGN_OR_RETURN(const geometry::SE3 T0,
+                         service_common::PoseFromProto(loaded.truth().t_world_body(), "truth"));
+    MAV_RETURN_IF_ERROR(s.ConfigureLocalization(T0));
+  }
+  MAV_RETURN_IF_ERROR(s.WaitForDataPlane());
+  s.figures.setup_s = MsSince(setup_start) / 1000;
+  return std::unique_ptr<ServiceDriver>(new ServiceDriver(std::move(impl)));
+}
+
+Result<v1::FlightStatus> ServiceDriver::Impl::RunUntil(int64_t until_ns) {
+  v1::FlightStatus status;
+  v1::GetFlightStatusRequest get;
+  if (until_ns > t_ns) {
+    v1::StartFlightRequest start;
+    start.set_run_until_s(NsToSeconds(until_ns));
+    MAV_RETURN_IF_ERROR(
+        Unary("mav-simulator", addresses.simulator, "StartFlight",
+              [&](grpc::ClientContext* c) { return simulator->StartFlight(c, start, &status); }));
+    running = true;
+    while (status.state() == v1::FLIGHT_STATE_RUNNING) {
+      std::this_thread::sleep_for(kPollPeriod);
+      MAV_RETURN_IF_ERROR(Unary(
+          "mav-simulator", addresses.simulator, "GetFlightStatus",
+          [&](grpc::ClientContext* c) { return simulator->GetFlightStatus(c, get, &status); }));
+    }
+    running = false;
+  } else {
+    MAV_RETURN_IF_ERROR(
+        Unary("mav-simulator", addresses.simulator, "GetFlightStatus",
+              [&](grpc::ClientContext* c) { return simulator->GetFlightStatus(c, get, &status); }));
+  }
+  if (status.state() == v1::FLIGHT_STATE_FINISHED) {
+    return Status::DeadlineExceeded("the simulation reached its 7200 s limit");
+  }
+  if (status.state() != v1::FLIGHT_STATE_PAUSED && status.state() != v1::FLIGHT_STATE_LOADED) {
+    return Status::FailedPrecondition("mav-simulator: the flight is " +
+                                      v1::FlightState_Name(status.state()) + " (" +
+                                      status.last_error() + ")");
+  }
+  if (until_ns > t_ns && status.t_ns() < until_ns) {
+    return Status::Unavailable("mav-simulator paused at " +
+                               std::to_string(NsToSeconds(status.t_ns())) +
+                               " s: " + status.pause_reason() + ": " + status.last_error());
+  }
+  t_ns = status.t_ns();
+  return status;
+}
+
+Result<mission::VehicleView> ServiceDriver::Advance(double dt_s) {
+  Impl& s = *impl_;
+  const auto start = Clock::now();
+  MAV_ASSIGN_OR_RETURN(const v1::FlightStatus flight, s.RunUntil(s.t_ns + SecondsToNs(dt_s)));
+  v1::ControlState state;
+  v1::ControlGetStateRequest get_state;
+  MAV_RETURN_IF_ERROR(
+      s.Unary("mav-control", s.addresses.control, "GetState",
+              [&](grpc::ClientContext* c) { return s.control->GetState(c, get_state, &state); }));
+  mission::VehicleView v;
+  v.t_ns = flight.t_ns();
+  v.armed = state.armed();
+  const v1::VehicleEstimate& e = state.estimate();
+  v.estimator_initialized = e.initialized();
+  v.estimator_converged = e.converged();
+  v.mode = ModeFromProto(state.mode());
+  v.moving = state.moving();
+  v.p_est = FromProto(e.t_world_body().position());
+  v.v_est = FromProto(e.velocity());
+  v.q_est = FromProto(e.t_world_body().orientation());
+  const Eigen::Vector3d forward = v.q_est * Eigen::Vector3d::UnitX();
+  v.yaw_est_rad = std::atan2(forward.y(), forward.x());
+  v.pose_age_s = e.initialized() ? NsToSeconds(v.t_ns - e.last_pose_arrival_t_ns())
+                                 : std::numeric_limits<double>::infinity();
+  v.poses_rejected = e.poses_gated();
+  v.collisions = flight.collisions_size();
+  const v1::GroundTruthState& truth = flight.truth();
+  v.truth = mission::TrueState{FromProto(truth.t_world_body().position()),
+                               FromProto(truth.t_world_body().orientation()),
+                               FromProto(truth.velocity()), FromProto(truth.angular_velocity())};
+  if (s.vo()) {
+    // A restarted service is unconfigured: the mission seeds it; an unreachable one is down.
+    v1::LocalizationStatus loc;
+    v1::LocalizationGetStatusRequest get_loc;
+    const Status reached = s.Unary(
+        "mav-localization", s.addresses.localization, "GetStatus",
+        [&](grpc::ClientContext* c) { return s.localization->GetStatus(c, get_loc, &loc); });
+    if (!reached.ok()) {
+      v.localization_state = "down";
+    } else if (loc.state() == v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED) {
+      v.localization_state = "unseeded";
+      v.localization_needs_seed = true;
+    } else {
+      v.localization_state = TrackingName(loc.tracking_state());
+    }
+  } else {
+    v.localization_state = mission::PoseSourceName(s.options.vehicle.pose_source);
+  }
+  s.recorder->Offer(v);
+  s.advance_ms.Add(MsSince(start));
+  return v;
+}
+
+Status ServiceDriver::Arm() {
+  Impl& s = *impl_;
+  v1::ArmRequest request;
+  v1::ControlStatus status;
+  return s.Unary("mav-control", s.addresses.control, "Arm",
+                 [&](grpc::ClientContext* c) { return s.control->Arm(c, request, &status); });
+}
+
+Status ServiceDriver::Disarm() {
+  Impl& s = *impl_;
+  v1::DisarmRequest request;
+  v1::ControlStatus status;
+  return s.Unary("mav-control", s.addresses.control, "Disarm",
+                 [&](grpc::ClientContext* c) { return s.control->Disarm(c, request, &status); });
+}
+
+Status ServiceDriver::GoTo(const Eigen::Vector3d& position, double yaw_rad,
+                           const control::GoToLimits& limits) {
+  Impl& s = *impl_;
+  v1::HoverRequest request;
+  ToProto(position, request.mutable_position());
+  request.set_yaw_rad(yaw_rad);
+  v1::GoToLimits* l = request.mutable_limits();
+  l->set_max_speed_mps(limits.max_speed_mps);
+  l->set_max_accel_mps2(limits.max_accel_mps2);
+  l->set_max_yaw_rate_radps(limits.max_yaw_rate_radps);
+  l->set_min_duration_s(limits.min_duration_s);
+  v1::ControlStatus status;
+  return s.Unary("mav-control", s.addresses.control, "Hover",
+                 [&](grpc::ClientContext* c) { return s.control->Hover(c, request, &status); });
+}
+
+Status ServiceDriver::Hold(const Eigen::Vector3d& position, double yaw_rad) {
+  Impl& s = *impl_;
+  v1::HoverRequest request;
+  ToProto(position, request.mutable_position());
+  request.set_yaw_rad(yaw_rad);
+  request.set_immediate(true);
+  v1::ControlStatus status;
+  return s.Unary("mav-control", s.addresses.control, "Hover",
+                 [&](grpc::ClientContext* c) { return s.control->Hover(c, request, &status); });
+}
+
+Status ServiceDriver::Follow(const geometry::PolynomialTrajectory& trajectory) {
+  Impl& s = *impl_;
+  v1::SetTrajectoryRequest request;
+  control_service::ToProto(trajectory, request.mutable_trajectory());
+  v1::ControlStatus status;
+  return s.Unary("mav-control", s.addresses.control, "SetTrajectory", [&](grpc::ClientContext* c) {
+    return s.control->SetTrajectory(c, request, &status);
+  });
+}
+
+Result<mission::LegPlan> ServiceDriver::Plan(const Eigen::Vector3d& start,
+                                             const Eigen::Vector3d& goal, double yaw_rad) {
+  Impl& s = *impl_;
+  const auto plan_start = Clock::now();
+  v1::PlanPathRequest request;
+  ToProto(start, request.mutable_start());
+  ToProto(goal, request.mutable_goal());
+  const planning::SpeedLimits& limits = s.plan_options.limits;
+  v1::SpeedLimits* l = request.mutable_limits();
+  l->set_max_speed_mps(limits.max_speed_mps);
+  l->set_max_acceleration_mps2(limits.max_acceleration_mps2);
+  l->set_max_lateral_acceleration_mps2(limits.max_lateral_acceleration_mps2);
+  l->set_max_jerk_mps3(limits.max_jerk_mps3);
+  request.set_seed(s.options.vehicle.seed);
+  request.set_start_yaw_rad(yaw_rad);
+  v1::PlanPathResponse response;
+  const Status called =
+      s.Unary("mav-planning", s.addresses.planning, "PlanPath",
+              [&](grpc::ClientContext* c) { return s.planning->PlanPath(c, request, &response); });
+  s.plan_ms.Add(MsSince(plan_start));
+  ++s.figures.plans;
+  if (!called.ok()) {
+    ++s.figures.plans_failed;
+    return called;
+  }
+  if (response.status() != v1::PLAN_STATUS_SUCCESS) {
+    ++s.figures.plans_failed;
+    std::string name = v1::PlanStatus_Name(response.status());
+    if (name.rfind("PLAN_STATUS_", 0) == 0) name = name.substr(12);
+    return Status::FailedPrecondition(name + ": " + response.message());
+  }
+  mission::LegPlan leg;
+  MAV_ASSIGN_OR_RETURN(leg.trajectory,
+                       control_service::TrajectoryFromProto(response.trajectory(), "trajectory"));
+  for (const v1::Vector3& p : response.shortened_path()) leg.path.push_back(FromProto(p));
+  leg.length_m = response.trajectory_length_m();
+  leg.duration_s = response.duration_s();
+  return leg;
+}
+
+Status ServiceDriver::CheckPoint(const Eigen::Vector3d& p) {
+  return mission::CheckPointInMap(*impl_->map, p, impl_->figures.map_description);
+}
+
+Result<Eigen::Vector3d> ServiceDriver::LandingSpot(const Eigen::Vector3d& above) {
+  return mission::LandingSpotInMap(*impl_->map, above, impl_->mission.start.z());
+}
+
+Status ServiceDriver::SeedLocalization(const geometry::SE3& T_world_body) {
+  Impl& s = *impl_;
+  if (!s.vo()) return Status::FailedPrecondition("the pose source is not the VO");
+  return s.ConfigureLocalization(T_world_body);
+}
+
+const std::vector<mission::FlightSample>& ServiceDriver::record() const {
+  return impl_->recorder->samples();
+}
+
+const planning::PlanningMap& ServiceDriver::planning_map() const { return *impl_->map; }
+const std::string& ServiceDriver::map_bt() const { return impl_->map_bt; }
+
+void ServiceDriver::Stop() {
+  Impl& s = *impl_;
+  if (!s.running) return;
+  v1::PauseFlightRequest request;
+  v1::FlightStatus status;
+  (void)s.Unary("mav-simulator", s.addresses.simulator, "PauseFlight", [&](grpc::ClientContext* c) {
+    return s.simulator->PauseFlight(c, request, &status);
+  });
+  s.running = false;
+}
+
+Result<ServiceFigures> ServiceDriver::Figures() {
+  Impl& s = *impl_;
+  ServiceFigures f = s.figures;
+  f.plan_ms = s.plan_ms.Summary();
+  f.advance_ms = s.advance_ms.Summary();
+  v1::FlightStatus flight;
+  v1::GetFlightStatusRequest get_flight;
+  MAV_RETURN_IF_ERROR(s.Unary("mav-simulator", s.addresses.simulator, "GetFlightStatus",
+                              [&](grpc::ClientContext* c) {
+                                return s.simulator->GetFlightStatus(c, get_flight, &flight);
+                              }));
+  f.collisions = flight.collisions_size();
+  for (const v1::FlightCollision& c : flight.collisions()) {
+    std::ostringstream d;
+    d << "t=" << c.t_s() << " s at (" << FromProto(c.position()).transpose() << "): " << c.what();
+    f.collision_descriptions.push_back(d.str());
+  }
+  f.frames_published = flight.frames_published();
+  f.render_ms = StatsFromProto(flight.render_ms());
+  v1::ControlStatus control;
+  v1::ControlGetStatusRequest get_control;
+  MAV_RETURN_IF_ERROR(s.Unary(
+      "mav-control", s.addresses.control, "GetStatus",
+      [&](grpc::ClientContext* c) { return s.control->GetStatus(c, get_control, &control); }));
+  f.poses_merged = control.poses();
+  f.lockstep_frames_missed = control.lockstep_frames_missed();
+  v1::ControlState state;
+  v1::ControlGetStateRequest get_state;
+  MAV_RETURN_IF_ERROR(
+      s.Unary("mav-control", s.addresses.control, "GetState",
+              [&](grpc::ClientContext* c) { return s.control->GetState(c, get_state, &state); }));
+  f.poses_gated = state.estimate().poses_gated();
+  if (s.vo()) {
+    v1::LocalizationStatus loc;
+    v1::LocalizationGetStatusRequest get_loc;
+    // A localization that is down at the end leaves its figures at 0.
+    if (s.Unary("mav-localization", s.addresses.localization, "GetStatus",
+                [&](grpc::ClientContext* c) { return s.localization->GetStatus(c, get_loc, &loc); })
+            .ok()) {
+      f.vo_frames = loc.frames_processed();
+      f.vo_lost = loc.frames_lost();
+      f.vo_ms = StatsFromProto(loc.processing_ms());
+    }
+  }
+  return f;
+}
+
+}  // namespace mav::mavctl

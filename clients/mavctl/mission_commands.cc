@@ -41,7 +41,7 @@ Result<std::string> Address(const std::string& flag, const std::string& port_env
 
 struct RunFlags {
   std::string mission_path, out_dir, json_path, pose_source = "vo", controller = "paper";
-  std::string simulator, localization, planning, control;
+  std::string simulator, localization, mapping, planning, control, map = "truth";
   uint64_t seed = 1;
   double vo_latency_s = 0.05, max_speed = 0, timeout_s = 900, camera_pitch_deg = 0;
   double lockstep_wait_s = 2;
@@ -68,6 +68,11 @@ Result<ServiceMissionOptions> OptionsFrom(const RunFlags& f) {
   o.vehicle.controller = *controller;
   if (f.max_speed > 0) o.planning.limits = mission::SpeedLimitsForMaxSpeed(f.max_speed);
   o.lockstep_wait_s = f.lockstep_wait_s;
+  if (f.map != "truth" && f.map != "online") {
+    return Status::InvalidArgument("--map: " + QuoteForError(f.map) +
+                                   " is not one of truth, online");
+  }
+  o.online_map = f.map == "online";
   return o;
 }
 
@@ -98,7 +103,11 @@ FlagParser MakeRunFlags(RunFlags* f) {
                   "how long mav-control waits for a frame's pose before flying on without it, "
                   "wall s",
                   0.01, 60);
-  flags.AddBool("face-goals", &f->face_goals, "turn to face each goal before its leg");
+  flags.AddString("map", &f->map,
+                  "the planner's map: truth (the world's exact occupancy) or online (built by "
+                  "mav-mapping during the flight from the VO's keyframes; needs --pose-source vo)");
+  flags.AddBool("face-goals", &f->face_goals,
+                "turn to face each goal before its leg (always with --map online)");
   flags.AddString("out", &f->out_dir, "write trajectory.csv, mission.png and map.bt here");
   flags.AddString("json", &f->json_path, "write the report here");
   flags.AddBool("quiet", &f->quiet, "no progress line");
@@ -106,6 +115,9 @@ FlagParser MakeRunFlags(RunFlags* f) {
                   "mav-simulator's host:port (127.0.0.1 and MAV_SIMULATOR_PORT or 50051)");
   flags.AddString("localization", &f->localization,
                   "mav-localization's host:port (127.0.0.1 and MAV_LOCALIZATION_PORT or 50052)");
+  flags.AddString(
+      "mapping", &f->mapping,
+      "mav-mapping's host:port, --map online (127.0.0.1 and MAV_MAPPING_PORT or 50053)");
   flags.AddString("planning", &f->planning,
                   "mav-planning's host:port (127.0.0.1 and MAV_PLANNING_PORT or 50054)");
   flags.AddString("control", &f->control,
@@ -124,6 +136,7 @@ int Run(const std::vector<std::string>& args) {
   for (auto [flag, env, port, target] :
        {std::tuple{&f.simulator, "MAV_SIMULATOR_PORT", 50051, &addresses.simulator},
         std::tuple{&f.localization, "MAV_LOCALIZATION_PORT", 50052, &addresses.localization},
+        std::tuple{&f.mapping, "MAV_MAPPING_PORT", 50053, &addresses.mapping},
         std::tuple{&f.planning, "MAV_PLANNING_PORT", 50054, &addresses.planning},
         std::tuple{&f.control, "MAV_CONTROL_PORT", 50055, &addresses.control}}) {
     Result<std::string> address = Address(*flag, env, port);
@@ -138,7 +151,7 @@ int Run(const std::vector<std::string>& args) {
   if (!spec.ok()) return Usage(spec.status().message() + " (no take-off)");
   mission::MissionOptions mission_options;
   mission_options.timeout_s = f.timeout_s;
-  mission_options.face_goals = f.face_goals;
+  mission_options.face_goals = f.face_goals || options->online_map;
   if (spec->world == "plant") mission_options.goal_tolerance_m = 0.5;
 
   const auto wall_start = std::chrono::steady_clock::now();
@@ -178,6 +191,11 @@ int Run(const std::vector<std::string>& args) {
   r.map_description = services->map_description;
   r.plan_ms = services->plan_ms;
   r.lockstep_frames_missed = services->lockstep_frames_missed;
+  r.keyframes = services->keyframes;
+  r.map_rebuilds = services->map_rebuilds;
+  r.map_errors = services->map_errors;
+  r.map_build_ms = services->map_build_ms;
+  r.map_quality = services->map_quality;
   r.tick_ms = services->advance_ms;
   std::fputs(mission::MissionTable(r).c_str(), stdout);
 

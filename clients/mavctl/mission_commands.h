@@ -4,8 +4,9 @@
 //
 //   mavctl mission run --mission FILE [--seed S] [--pose-source vo|contest|truth]
 //                      [--camera-pitch DEG] [--vo-latency S] [--controller paper|lee]
-//                      [--max-speed V] [--timeout S] [--face-goals] [--out DIR] [--json FILE]
-//                      [--quiet] [--simulator A] [--localization A] [--planning A] [--control A]
+//                      [--max-speed V] [--timeout S] [--face-goals] [--map truth|online]
+//                      [--out DIR] [--json FILE] [--quiet] [--simulator A] [--localization A]
+//                      [--mapping A] [--planning A] [--control A]
 //
 // Writes the same table, JSON report, DIR/trajectory.csv, DIR/mission.png and DIR/map.bt as
 // mav-eval mission. Exit status: 0 when the mission completed, 1 when it did not (or a service

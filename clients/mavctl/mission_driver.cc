@@ -11,10 +11,16 @@
 
 #include "mav/v1/control.grpc.pb.h"
 #include "mav/v1/localization.grpc.pb.h"
+#include "mav/v1/mapping.grpc.pb.h"
 #include "mav/v1/planning.grpc.pb.h"
 #include "mav/v1/simulator.grpc.pb.h"
 
+#include "mav/camera/rectifier.h"
 #include "mav/common/time.h"
+#include "mav/dataset/occupancy_io.h"
+#include "mav/mapping/collision_eval.h"
+#include "mav/mapping/keyframes.h"
+#include "mav/mapping/observability.h"
 #include "mav/planning/planner.h"
 #include "mav/planning/planning_map.h"
 #include "services/common/grpc_status.h"
@@ -104,7 +110,15 @@ struct ServiceDriver::Impl {
   std::unique_ptr<v1::Localization::Stub> localization;
   std::unique_ptr<v1::Control::Stub> control;
   std::unique_ptr<v1::Planning::Stub> planning;
+  std::unique_ptr<v1::Mapping::Stub> mapping;
   mission::MissionPlanning plan_options;
+  // The online map: the world's exact occupancy (its geometry, and the final map's evaluation),
+  // the grid the planner has now, and when to rebuild.
+  dataset::OccupancyGrid truth_grid, planning_grid;
+  int64_t keyframes_at_build = 0;
+  int64_t next_build_ns = 0;
+  uint64_t map_version = 0;
+  RuntimeWindow map_build_ms{10000};
   geometry::SE3 T_vehicle_rig;
   std::string map_bt;
   std::shared_ptr<const planning::PlanningMap> map;
@@ -113,6 +127,7 @@ struct ServiceDriver::Impl {
   bool running = false;
   ServiceFigures figures;
   RuntimeWindow plan_ms{10000}, advance_ms{100000};
+  std::function<void(const std::string&)> progress;
 
   bool vo() const { return options.vehicle.pose_source == mission::PoseSource::kVo; }
 
@@ -130,7 +145,15 @@ struct ServiceDriver::Impl {
   }
 
   Status LoadFlight(const std::string& mission_yaml, v1::FlightStatus* loaded);
+  // A server-streamed occupancy answer's bytes.
+  Status Download(grpc::ClientReader<v1::OccupancyChunk>* reader, const std::string& what,
+                  std::string* bytes);
   Status SetUpPlanning(const std::function<void(const std::string&)>& progress);
+  // `bt` becomes the planner's map (uploaded, its roadmap built) and the driver's copy.
+  Status LoadPlanningMap(std::string bt, const std::string& what);
+  Status StartMapping();
+  // The online map from the keyframes so far (BuildMap, GetOccupancy, the ground prior, upload).
+  Status RebuildOnlineMap();
   Status ConfigureControl();
   Status ConfigureLocalization(const geometry::SE3& T_world_body);
   Status WaitForDataPlane();
@@ -158,36 +181,52 @@ Status ServiceDriver::Impl::LoadFlight(const std::string& mission_yaml, v1::Flig
       options.setup_timeout_s);
 }
 
+Status ServiceDriver::Impl::Download(grpc::ClientReader<v1::OccupancyChunk>* reader,
+                                     const std::string& what, std::string* bytes) {
+  v1::OccupancyChunk chunk;
+  bytes->clear();
+  while (reader->Read(&chunk)) {
+    if (chunk.chunk().offset() != bytes->size()) {
+      return Status::DataLoss(what + ": chunk at offset " + std::to_string(chunk.chunk().offset()) +
+                              " after " + std::to_string(bytes->size()) + " bytes");
+    }
+    *bytes += chunk.chunk().data();
+  }
+  return service_common::OutgoingCallStatus(reader->Finish(), what, what.substr(0, what.find(' ')));
+}
+
 Status ServiceDriver::Impl::SetUpPlanning(const std::function<void(const std::string&)>& progress) {
   // The world's exact occupancy from the simulator, as the in-process driver computes it.
   if (progress) progress("ground-truth occupancy from mav-simulator");
-  {
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() +
-                         std::chrono::seconds(static_cast<int64_t>(options.setup_timeout_s)));
-    v1::GetGroundTruthOccupancyRequest request;
-    request.set_resolution_m(plan_options.map_resolution_m);
-    request.set_format(v1::OCCUPANCY_FORMAT_OCTOMAP_BT);
-    std::unique_ptr<grpc::ClientReader<v1::OccupancyChunk>> reader =
-        simulator->GetGroundTruthOccupancy(&context, request);
-    v1::OccupancyChunk chunk;
-    while (reader->Read(&chunk)) {
-      if (chunk.chunk().offset() != map_bt.size()) {
-        return Status::DataLoss("mav-simulator at " + addresses.simulator +
-                                ": GetGroundTruthOccupancy: chunk at offset " +
-                                std::to_string(chunk.chunk().offset()) + " after " +
-                                std::to_string(map_bt.size()) + " bytes");
-      }
-      map_bt += chunk.chunk().data();
-    }
-    MAV_RETURN_IF_ERROR(service_common::OutgoingCallStatus(
-        reader->Finish(), "mav-simulator at " + addresses.simulator + ": GetGroundTruthOccupancy",
-        "mav-simulator"));
-  }
-  // The ground station's copy (CheckPoint, LandingSpot) and the planner's, with one set of
-  // options.
-  const std::string name = mission.world + " ground-truth occupancy";
-  MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(map_bt, name, plan_options.map));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() +
+                       std::chrono::seconds(static_cast<int64_t>(options.setup_timeout_s)));
+  v1::GetGroundTruthOccupancyRequest request;
+  request.set_resolution_m(plan_options.map_resolution_m);
+  request.set_format(options.online_map ? v1::OCCUPANCY_FORMAT_MAVOCC
+                                        : v1::OCCUPANCY_FORMAT_OCTOMAP_BT);
+  std::string bytes;
+  const std::unique_ptr<grpc::ClientReader<v1::OccupancyChunk>> reader =
+      simulator->GetGroundTruthOccupancy(&context, request);
+  MAV_RETURN_IF_ERROR(
+      Download(reader.get(),
+               "mav-simulator at " + addresses.simulator + ": GetGroundTruthOccupancy", &bytes));
+  if (progress) progress("uploading the map to mav-planning and building its roadmap");
+  if (!options.online_map) return LoadPlanningMap(std::move(bytes), "ground-truth occupancy");
+  // The online map starts as the ground below the take-off (the one thing known before the
+  // flight) and everything else unknown.
+  MAV_ASSIGN_OR_RETURN(truth_grid, dataset::DecodeMavocc(bytes, "ground-truth occupancy"));
+  dataset::OccupancyGrid prior(truth_grid.geometry());
+  mission::AddGroundPrior(mission.start.z(), &prior);
+  MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(prior));
+  planning_grid = std::move(prior);
+  return LoadPlanningMap(std::move(bt), "online map (no keyframe yet)");
+}
+
+Status ServiceDriver::Impl::LoadPlanningMap(std::string bt, const std::string& what) {
+  const std::string name = mission.world + " " + what;
+  MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(bt, name, plan_options.map));
+  map_bt = std::move(bt);
   const planning::MapOptions& mo = plan_options.map;
   v1::MapOptions map_options;
   map_options.set_robot_radius_m(mo.robot_radius_m);
@@ -195,7 +234,6 @@ Status ServiceDriver::Impl::SetUpPlanning(const std::function<void(const std::st
   map_options.set_max_distance_m(mo.max_distance_m);
   ToProto(mo.planning_bounds->min, map_options.mutable_bounds()->mutable_min());
   ToProto(mo.planning_bounds->max, map_options.mutable_bounds()->mutable_max());
-  if (progress) progress("uploading the map to mav-planning");
   v1::MapInfo info;
   MAV_RETURN_IF_ERROR(Unary(
       "mav-planning", addresses.planning, "UploadMap",
@@ -218,7 +256,6 @@ Status ServiceDriver::Impl::SetUpPlanning(const std::function<void(const std::st
         return writer->Finish();
       },
       options.setup_timeout_s));
-  if (progress) progress("building the roadmap in mav-planning");
   const planning::RoadmapOptions& ro = plan_options.roadmap;
   v1::BuildRoadmapRequest roadmap;
   roadmap.set_time_budget_s(ro.time_budget_s);
@@ -232,10 +269,77 @@ Status ServiceDriver::Impl::SetUpPlanning(const std::function<void(const std::st
       [&](grpc::ClientContext* c) { return planning->BuildRoadmap(c, roadmap, &roadmap_info); },
       options.setup_timeout_s));
   std::ostringstream description;
-  description << "ground-truth occupancy of " << mission.world << " at "
-              << plan_options.map_resolution_m << " m, robot radius " << mo.robot_radius_m << " m, "
-              << roadmap_info.milestones() << " roadmap milestones (mav-planning)";
+  description << what << " of " << mission.world << " at " << plan_options.map_resolution_m
+              << " m, robot radius " << mo.robot_radius_m << " m, " << roadmap_info.milestones()
+              << " roadmap milestones (mav-planning)";
   figures.map_description = description.str();
+  return Status::Ok();
+}
+
+Status ServiceDriver::Impl::StartMapping() {
+  // The in-process pipeline's keyframe rule and point depth.
+  const mapping::KeyframeOptions keyframes;
+  v1::StartSessionRequest request;
+  request.mutable_calibration()->set_simulator_address(addresses.simulator);
+  request.mutable_keyframes()->set_min_translation_m(keyframes.min_translation_m);
+  request.mutable_keyframes()->set_min_rotation_deg(keyframes.min_rotation_rad * 180 / M_PI);
+  request.mutable_keyframes()->set_max_depth_m(options.map_max_depth_m);
+  request.set_pose_source(v1::POSE_SOURCE_LOCALIZATION);
+  request.set_sparse_mesh_only(true);
+  v1::MappingStatus status;
+  return Unary("mav-mapping", addresses.mapping, "StartSession",
+               [&](grpc::ClientContext* c) { return mapping->StartSession(c, request, &status); });
+}
+
+Status ServiceDriver::Impl::RebuildOnlineMap() {
+  const auto start = Clock::now();
+  // A map of a partly seen room: the observed surfaces occupied, the space the lines of sight
+  // crossed free, the rest unknown (free for the planner), on the world's grid.
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  build.set_resolution_m(truth_grid.resolution());
+  ToProto(truth_grid.origin(), build.mutable_bounds()->mutable_min());
+  ToProto(truth_grid.geometry().max_corner(), build.mutable_bounds()->mutable_max());
+  build.set_unknown(v1::UNKNOWN_HANDLING_KEEP_UNKNOWN);
+  build.mutable_sparse_mesh()->set_min_visibility(
+      static_cast<uint32_t>(options.map_min_visibility));
+  build.set_prefer(v1::MAP_PREFERENCE_SAFETY);
+  build.set_surfaces_only(true);
+  v1::BuildMapResponse built;
+  MAV_RETURN_IF_ERROR(Unary(
+      "mav-mapping", addresses.mapping, "BuildMap",
+      [&](grpc::ClientContext* c) { return mapping->BuildMap(c, build, &built); },
+      options.setup_timeout_s));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() +
+                       std::chrono::seconds(static_cast<int64_t>(options.setup_timeout_s)));
+  v1::GetOccupancyRequest get;
+  get.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  get.set_format(v1::OCCUPANCY_FORMAT_MAVOCC);
+  std::string bytes;
+  const std::unique_ptr<grpc::ClientReader<v1::OccupancyChunk>> reader =
+      mapping->GetOccupancy(&context, get);
+  MAV_RETURN_IF_ERROR(
+      Download(reader.get(), "mav-mapping at " + addresses.mapping + ": GetOccupancy", &bytes));
+  MAV_ASSIGN_OR_RETURN(const dataset::OccupancyGrid online,
+                       dataset::DecodeMavocc(bytes, "the online map"));
+  // On the world's grid (the same geometry, voxel for voxel, unless the service rounded it).
+  dataset::OccupancyGrid grid(truth_grid.geometry());
+  for (int k = 0; k < grid.size().z(); ++k) {
+    for (int j = 0; j < grid.size().y(); ++j) {
+      for (int i = 0; i < grid.size().x(); ++i) {
+        grid[grid.Linear(i, j, k)] = online.StateAt(grid.CenterOf({i, j, k}));
+      }
+    }
+  }
+  mission::AddGroundPrior(mission.start.z(), &grid);
+  MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(grid));
+  MAV_RETURN_IF_ERROR(LoadPlanningMap(
+      std::move(bt), "online map (" + std::to_string(built.keyframes()) + " keyframes)"));
+  planning_grid = std::move(grid);
+  keyframes_at_build = built.keyframes();
+  ++map_version;
+  map_build_ms.Add(MsSince(start));
   return Status::Ok();
 }
 
@@ -288,7 +392,8 @@ Status ServiceDriver::Impl::WaitForDataPlane() {
     MAV_RETURN_IF_ERROR(Unary(
         "mav-simulator", addresses.simulator, "GetFlightStatus",
         [&](grpc::ClientContext* c) { return simulator->GetFlightStatus(c, request, &status); }));
-    if (status.actuator_writers() > 0 && (!vo() || status.stereo_subscribers() > 0)) break;
+    const uint32_t stereo_readers = (vo() ? 1 : 0) + (options.online_map ? 1 : 0);
+    if (status.actuator_writers() > 0 && status.stereo_subscribers() >= stereo_readers) break;
     if (Clock::now() > give_up) {
       return Status::Unavailable(
           "DDS: after 10 s mav-simulator sees " + std::to_string(status.actuator_writers()) +
@@ -317,6 +422,7 @@ Result<std::unique_ptr<ServiceDriver>> ServiceDriver::Create(
   s.mission = mission;
   s.options = options;
   s.addresses = addresses;
+  s.progress = progress;
   auto channel = [](const std::string& address) {
     return grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
   };
@@ -324,11 +430,18 @@ Result<std::unique_ptr<ServiceDriver>> ServiceDriver::Create(
   s.control = v1::Control::NewStub(channel(addresses.control));
   s.planning = v1::Planning::NewStub(channel(addresses.planning));
   if (s.vo()) s.localization = v1::Localization::NewStub(channel(addresses.localization));
+  if (options.online_map) {
+    if (!s.vo()) {
+      return Status::InvalidArgument(
+          "online map: it is built from the VO's keyframes (pose source vo)");
+    }
+    s.mapping = v1::Mapping::NewStub(channel(addresses.mapping));
+  }
   s.T_vehicle_rig = mission::VehicleRigMount(options.vehicle.camera_pitch_rad);
   s.recorder = std::make_unique<mission::FlightRecorder>(options.record_rate_hz);
   MAV_ASSIGN_OR_RETURN(mission::MissionWorld world, mission::MakeMissionWorld(mission, 0));
   s.plan_options = mission::MissionPlanningFor(mission, world.preset, options.planning,
-                                               options.vehicle.seed, /*unknown_is_free=*/false);
+                                               options.vehicle.seed, options.online_map);
 
   if (progress) progress("loading the mission flight into mav-simulator");
   v1::FlightStatus loaded;
@@ -342,6 +455,7 @@ Result<std::unique_ptr<ServiceDriver>> ServiceDriver::Create(
                          service_common::PoseFromProto(loaded.truth().t_world_body(), "truth"));
     MAV_RETURN_IF_ERROR(s.ConfigureLocalization(T0));
   }
+  if (options.online_map) MAV_RETURN_IF_ERROR(s.StartMapping());
   MAV_RETURN_IF_ERROR(s.WaitForDataPlane());
   s.figures.setup_s = MsSince(setup_start) / 1000;
   return std::unique_ptr<ServiceDriver>(new ServiceDriver(std::move(impl)));
@@ -390,6 +504,24 @@ Result<mission::VehicleView> ServiceDriver::Advance(double dt_s) {
   Impl& s = *impl_;
   const auto start = Clock::now();
   MAV_ASSIGN_OR_RETURN(const v1::FlightStatus flight, s.RunUntil(s.t_ns + SecondsToNs(dt_s)));
+  if (s.mapping != nullptr && s.t_ns >= s.next_build_ns) {
+    // The online map is rebuilt every map_rebuild_s while new keyframes come (the vehicle's
+    // clock waits for the build, as in process).
+    v1::MappingStatus mapping;
+    v1::MappingGetStatusRequest get_mapping;
+    const Status reached = s.Unary(
+        "mav-mapping", s.addresses.mapping, "GetStatus",
+        [&](grpc::ClientContext* c) { return s.mapping->GetStatus(c, get_mapping, &mapping); });
+    s.figures.keyframes = reached.ok() ? mapping.keyframes() : s.figures.keyframes;
+    if (reached.ok() && mapping.keyframes() > s.keyframes_at_build) {
+      s.next_build_ns = s.t_ns + SecondsToNs(s.options.map_rebuild_s);
+      if (const Status rebuilt = s.RebuildOnlineMap(); !rebuilt.ok()) {
+        ++s.figures.map_errors;
+        if (s.progress)
+          s.progress("online map rebuild failed (the map stays): " + rebuilt.ToString());
+      }
+    }
+  }
   v1::ControlState state;
   v1::ControlGetStateRequest get_state;
   MAV_RETURN_IF_ERROR(
@@ -412,6 +544,7 @@ Result<mission::VehicleView> ServiceDriver::Advance(double dt_s) {
                                  : std::numeric_limits<double>::infinity();
   v.poses_rejected = e.poses_gated();
   v.collisions = flight.collisions_size();
+  v.map_version = s.map_version;
   const v1::GroundTruthState& truth = flight.truth();
   v.truth = mission::TrueState{FromProto(truth.t_world_body().position()),
                                FromProto(truth.t_world_body().orientation()),
@@ -569,6 +702,39 @@ Result<ServiceFigures> ServiceDriver::Figures() {
   ServiceFigures f = s.figures;
   f.plan_ms = s.plan_ms.Summary();
   f.advance_ms = s.advance_ms.Summary();
+  f.map_rebuilds = s.map_version;
+  f.map_build_ms = s.map_build_ms.Summary();
+  if (s.mapping != nullptr) {
+    // The planner's last map against the world's exact occupancy, unknown as the planner takes
+    // it (free), over the volume the camera could observe from its true poses along the flight
+    // (every 10th record sample: 0.5 s apart; the services do not report their keyframes).
+    MAV_ASSIGN_OR_RETURN(const camera::RigRectification rectification,
+                         camera::RigRectification::Create(camera::EurocStereoCalibration(),
+                                                          /*calibration_rectified=*/false));
+    std::vector<geometry::SE3> views;
+    const std::vector<mission::FlightSample>& record = s.recorder->samples();
+    for (size_t i = 0; i < record.size(); i += 10) {
+      views.push_back(geometry::SE3(record[i].q_true, record[i].p_true) * s.T_vehicle_rig *
+                      rectification.T_body_rect0);
+    }
+    std::vector<uint8_t> observable;
+    mapping::CollisionEvalOptions eval_options;
+    eval_options.computed_unknown_is_occupied = false;
+    if (!views.empty()) {
+      MAV_ASSIGN_OR_RETURN(observable,
+                           mapping::ObservableVoxels(s.truth_grid, views, rectification.rig));
+      eval_options.observable = &observable;
+    }
+    MAV_ASSIGN_OR_RETURN(const mapping::CollisionOutcomes outcomes,
+                         mapping::EvaluateCollisions(s.truth_grid, s.planning_grid, eval_options));
+    mission::MapQuality q;
+    q.mcc = outcomes.Mcc();
+    q.missed_percent = outcomes.Percent(outcomes.missed_collision);
+    q.false_percent = outcomes.Percent(outcomes.false_collision);
+    q.positions = outcomes.total();
+    q.observable_only = !views.empty();
+    f.map_quality = q;
+  }
   v1::FlightStatus flight;
   v1::GetFlightStatusRequest get_flight;
   MAV_RETURN_IF_ERROR(s.Unary("mav-simulator", s.addresses.simulator, "GetFlightStatus",

@@ -12,6 +12,11 @@
 //                    modelled latency, so the flight does not depend on the VO's wall time
 //   mav-planning     UploadMap(the simulator's ground-truth occupancy) + BuildRoadmap with the
 //                    in-process options (mission::MissionPlanningFor); every leg is a PlanPath
+//   mav-mapping      (online map only) StartSession on the flight's stereo and the VO's poses
+//                    (DDS); every map_rebuild_s of the vehicle's clock while keyframes come,
+//                    BuildMap (the sparse mesh, surfaces only) -> GetOccupancy -> the ground
+//                    prior -> UploadMap (unknown space free) + BuildRoadmap: the mission re-checks
+//                    its leg on each new map version, as in process
 //
 // Advance(dt) runs the simulator to t + dt (StartFlight run_until_s, then waits for PAUSED) and
 // reads the vehicle back (Control.GetState, the simulator's ground truth, the localization's
@@ -23,6 +28,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,6 +39,7 @@
 #include "mav/mission/driver.h"
 #include "mav/mission/planning_setup.h"
 #include "mav/mission/record.h"
+#include "mav/mission/report.h"
 #include "mav/mission/vehicle.h"
 
 namespace mav::planning {
@@ -44,6 +51,7 @@ namespace mav::mavctl {
 struct ServiceAddresses {
   std::string simulator = "127.0.0.1:50051";
   std::string localization = "127.0.0.1:50052";
+  std::string mapping = "127.0.0.1:50053";
   std::string planning = "127.0.0.1:50054";
   std::string control = "127.0.0.1:50055";
 };
@@ -57,6 +65,13 @@ struct ServiceMissionOptions {
   double lockstep_timeout_s = 30;  // the simulator's wait for a command (then the mission aborts)
   double lockstep_wait_s = 2;      // mav-control's wait for a frame's pose
   double record_rate_hz = 20;
+  // The online map (mav-mapping), as the in-process kOnline map: rebuilt every map_rebuild_s
+  // while keyframes come, points up to map_max_depth_m deep seen by map_min_visibility
+  // keyframes.
+  bool online_map = false;
+  double map_rebuild_s = 2.0;
+  double map_max_depth_m = 3.5;
+  int map_min_visibility = 2;
 };
 
 // What the services report at the end (their own counters).
@@ -72,6 +87,14 @@ struct ServiceFigures {
   uint64_t poses_gated = 0;             // control: rejected by the estimator's gate
   uint64_t lockstep_frames_missed = 0;  // control: frames the localization did not answer
   uint64_t plans = 0, plans_failed = 0;
+  // The online map: keyframes mapped, rebuilds (each a new planner map), their wall time
+  // (BuildMap + download + upload + roadmap), and the final map against the world's occupancy
+  // over the volume the camera could observe from its true poses along the flight (the
+  // in-process driver takes its keyframes' poses: the services do not report them).
+  int64_t keyframes = 0;
+  uint64_t map_rebuilds = 0, map_errors = 0;
+  RuntimeStats map_build_ms;
+  std::optional<mission::MapQuality> map_quality;
   RuntimeStats plan_ms;     // the PlanPath round trip
   RuntimeStats advance_ms;  // wall time of one mission tick through the services
   double setup_s = 0;       // loading the flight, the map, the roadmap, configuring

@@ -114,6 +114,9 @@ Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
   }
   config.features_per_keyframe =
       k.features_per_keyframe() == 0 ? 100 : static_cast<int>(k.features_per_keyframe());
+  MAV_RETURN_IF_ERROR(DoubleOption(k.max_depth_m(), 0.5, false, 100.0, "keyframes.max_depth_m",
+                                   &config.max_depth_m));
+  config.sparse_mesh_only = request.sparse_mesh_only();
   MAV_ASSIGN_OR_RETURN(config.pose_source, PoseSourceFromProto(request.pose_source()));
   return config;
 }
@@ -199,6 +202,10 @@ Result<BuildRequest> BuildFromProto(const v1::BuildMapRequest& request) {
   out.mesh_to_grid = *preferred.mesh_to_grid;
   out.keep_unchecked_points = *preferred.keep_unchecked_points;
   out.occlusion_check = *preferred.occlusion_check;
+  if (request.surfaces_only()) {
+    out.mesh_to_grid.occupy_inside_cells = false;
+    out.mesh_to_grid.occupy_surface_voxels = true;
+  }
 
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const v1::SparseMeshOptions& s = request.sparse_mesh();

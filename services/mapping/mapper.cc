@@ -66,6 +66,9 @@ bool SessionConfig::IsValid(std::string* why) const {
     return fail("queue_length: must be in [1, 1000], got " + std::to_string(queue_length));
   }
   if (pose_wait_ms <= 0) return fail("pose_wait_ms: must be > 0");
+  if (!(max_depth_m >= 0.5 && max_depth_m <= 100)) {
+    return fail("keyframes.max_depth_m: must be in [0.5, 100], got " + std::to_string(max_depth_m));
+  }
   return true;
 }
 
@@ -83,6 +86,8 @@ struct Mapper::Engine {
     mapping::MappingPipelineOptions options;
     options.keyframes = config.keyframes;
     options.sparse.target_points_per_keyframe = config.features_per_keyframe;
+    options.sparse.max_depth_m = config.max_depth_m;
+    options.run_octomap = !config.sparse_mesh_only;
     Result<mapping::MappingPipeline> pipeline =
         mapping::MappingPipeline::Create(engine->rectification.rig, options);
     if (!pipeline.ok()) return Status::InvalidArgument("session: " + pipeline.status().message());

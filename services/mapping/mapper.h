@@ -72,6 +72,10 @@ struct SessionConfig {
   int queue_length = 16;
   // Longest a live frame waits for its pose, ms, > 0.
   int64_t pose_wait_ms = 2000;
+  // Sparse points deeper than this are not matched, [0.5, 100] m.
+  double max_depth_m = 6.0;
+  // Only the sparse mesher runs per keyframe (no dense stereo + OctoMap).
+  bool sparse_mesh_only = false;
 
   bool IsValid(std::string* why) const;
 };

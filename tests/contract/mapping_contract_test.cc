@@ -725,6 +725,50 @@ TEST_F(MappingContractTest, BuildMapGridEqualsThePipelineGridOfTheSameKeyframes)
   }
 }
 
+// A flight's online map: only the sparse mesher runs (no OctoMap per keyframe), points up to
+// max_depth_m, and surfaces_only keeps the mesh's surfaces without the graph cut's inside: fewer
+// occupied voxels than the full grid, none where the full grid is free.
+TEST_F(MappingContractTest, ASparseOnlySessionBuildsSurfaceOnlyMaps) {
+  v1::StartSessionRequest session = SessionRequest();
+  session.mutable_keyframes()->set_max_depth_m(0.1);
+  EXPECT_CODE(StartSession(session), StatusCode::INVALID_ARGUMENT, "keyframes.max_depth_m");
+  session.mutable_keyframes()->set_max_depth_m(8);
+  session.set_sparse_mesh_only(true);
+  ASSERT_TRUE(StartSession(session).ok());
+  const Data& data = TestData();
+  for (size_t i = 0; i < data.frames.size(); ++i) {
+    ASSERT_TRUE(Insert(KeyframeRequest(i, true)).ok());
+  }
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_OCTOMAP);
+  build.set_resolution_m(0.1);
+  *build.mutable_bounds() = MakeBox(-4.2, -4.2, -0.2, 4.2, 4.2, 3.2);
+  EXPECT_CODE(Build(build), StatusCode::FAILED_PRECONDITION, "");
+  auto occupied = [&](bool surfaces_only, dataset::OccupancyGrid* grid) {
+    v1::BuildMapRequest b = build;
+    b.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+    b.set_surfaces_only(surfaces_only);
+    ASSERT_TRUE(Build(b).ok());
+    v1::GetOccupancyRequest occupancy;
+    occupancy.set_format(v1::OCCUPANCY_FORMAT_MAVOCC);
+    std::string bytes;
+    ASSERT_TRUE(Occupancy(occupancy, &bytes).ok());
+    Result<dataset::OccupancyGrid> served = dataset::DecodeMavocc(bytes, "GetOccupancy");
+    ASSERT_TRUE(served.ok()) << served.status().ToString();
+    *grid = *std::move(served);
+  };
+  dataset::OccupancyGrid full, surfaces;
+  occupied(false, &full);
+  occupied(true, &surfaces);
+  ASSERT_TRUE(full.geometry().SameAs(surfaces.geometry()));
+  const int64_t n_full = full.Count(dataset::VoxelState::kOccupied);
+  const int64_t n_surfaces = surfaces.Count(dataset::VoxelState::kOccupied);
+  EXPECT_GT(n_surfaces, 100);
+  EXPECT_LT(n_surfaces, n_full) << "the inside cells are not occupied";
+  EXPECT_GT(surfaces.Count(dataset::VoxelState::kUnknown),
+            full.Count(dataset::VoxelState::kUnknown));
+}
+
 // The documented box limit fits the transport: 50 000 full boxes through a real port (~3 MB,
 // under gRPC's 4 MiB), each answered.
 TEST_F(MappingContractTest, FiftyThousandBoxesFitOneCallOverARealPort) {

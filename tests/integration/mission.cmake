@@ -4,5 +4,6 @@
 mav_add_test(mission_stack_test
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/mission_stack_test.cc
   LIBS mav::mission_sim mav::transport mav::protos
-  LABELS integration slow TIMEOUT 600)
+  LABELS integration slow TIMEOUT 600
+  SHARDS "agreement=*InProcess*" "fault=*Killed*")
 add_dependencies(mission_stack_test mavctl mav-simulator mav-localization mav-planning mav-control)

@@ -122,8 +122,6 @@ struct LockstepDriver::Impl {
   // Replaces the planning map and its roadmap by `grid`'s.
   Status LoadPlanningMap(const dataset::OccupancyGrid& grid, const std::string& what,
                          const ProgressCallback& progress);
-  // The voxels below the take-off's ground are occupied.
-  void AddGroundPrior(dataset::OccupancyGrid* grid) const;
   // The online map from the keyframes so far (the sparse mesh of libs/mapping).
   Status RebuildOnlineMap();
   // Offers a tracked frame (the VO's rig pose; the true one for the map's evaluation) to the
@@ -149,20 +147,8 @@ Status LockstepDriver::Impl::BuildPlanning(const ProgressCallback& progress) {
   // The online map starts as the ground below the take-off (the one thing known before the
   // flight) and everything else unknown.
   dataset::OccupancyGrid prior(truth_grid.geometry());
-  AddGroundPrior(&prior);
+  AddGroundPrior(mission.start.z(), &prior);
   return LoadPlanningMap(prior, "online map (no keyframe yet)", progress);
-}
-
-void LockstepDriver::Impl::AddGroundPrior(dataset::OccupancyGrid* grid) const {
-  const double ground = mission.start.z();
-  for (int k = 0; k < grid->size().z(); ++k) {
-    if (grid->CenterOf({0, 0, k}).z() >= ground) break;
-    for (int j = 0; j < grid->size().y(); ++j) {
-      for (int i = 0; i < grid->size().x(); ++i) {
-        (*grid)[grid->Linear(i, j, k)] = dataset::VoxelState::kOccupied;
-      }
-    }
-  }
 }
 
 Status LockstepDriver::Impl::LoadPlanningMap(const dataset::OccupancyGrid& grid,
@@ -191,7 +177,7 @@ Status LockstepDriver::Impl::RebuildOnlineMap() {
   build.min_visibility = options.map_min_visibility;
   MAV_ASSIGN_OR_RETURN(mapping::MethodMap built, mapper->Build(mapping::MappingMethod::kSparseMesh,
                                                                truth_grid.geometry(), build));
-  AddGroundPrior(&built.grid);
+  AddGroundPrior(mission.start.z(), &built.grid);
   MAV_RETURN_IF_ERROR(LoadPlanningMap(
       built.grid, "online map (" + std::to_string(built.keyframes) + " keyframes)", {}));
   keyframes_at_build = built.keyframes;

@@ -67,6 +67,17 @@ MissionPlanning MissionPlanningFor(const dataset::MissionSpec& mission, const si
   return p;
 }
 
+void AddGroundPrior(double ground_z, dataset::OccupancyGrid* grid) {
+  for (int k = 0; k < grid->size().z(); ++k) {
+    if (grid->CenterOf({0, 0, k}).z() >= ground_z) break;
+    for (int j = 0; j < grid->size().y(); ++j) {
+      for (int i = 0; i < grid->size().x(); ++i) {
+        (*grid)[grid->Linear(i, j, k)] = dataset::VoxelState::kOccupied;
+      }
+    }
+  }
+}
+
 Status CheckPointInMap(const planning::PlanningMap& map, const Eigen::Vector3d& p,
                        const std::string& map_name) {
   char why[400];

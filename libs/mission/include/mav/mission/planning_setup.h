@@ -14,6 +14,7 @@
 
 #include "mav/common/status.h"
 #include "mav/dataset/mission_file.h"
+#include "mav/dataset/occupancy_grid.h"
 #include "mav/planning/planner.h"
 #include "mav/planning/planning_map.h"
 #include "mav/planning/roadmap.h"
@@ -50,6 +51,9 @@ struct MissionPlanning {
 MissionPlanning MissionPlanningFor(const dataset::MissionSpec& mission, const sim::Preset& preset,
                                    const PlanningOverrides& overrides, uint64_t seed,
                                    bool unknown_is_free);
+
+// An online map's prior: the voxels below the take-off's ground (ground_z) are occupied.
+void AddGroundPrior(double ground_z, dataset::OccupancyGrid* grid);
 
 // MissionDriver::CheckPoint on `map`: InvalidArgument saying why the vehicle may not be at `p`
 // (outside the planning volume, or closer to an obstacle than the robot radius; `map_name` is

@@ -34,11 +34,21 @@ start=$(date +%s)
 if [[ $do_build -eq 1 ]]; then
   # The one clang tree of the quality gates, shared with the fuzz stage (tools/ci-clang-tree.sh).
   "$repo/tools/ci-clang-tree.sh" "$build_dir"
-  # The test executables of the chosen labels are the targets (mav_add_test names a target like
-  # its executable; a sharded test runs one executable under several ctest names).
-  mapfile -t targets < <(cd "$build_dir" && ctest -N -L "$labels" --show-only=json-v1 |
-    python3 -c 'import json, os, sys
-print("\n".join(sorted({os.path.basename(t["command"][0]) for t in json.load(sys.stdin)["tests"]})))')
+  # The test executables of the chosen labels are the targets: mav_add_test names a test like its
+  # executable, a shard <executable>_<shard> (the executables are not built yet, so ctest cannot
+  # tell their paths).
+  mapfile -t names < <(cd "$build_dir" && ctest -N -L "$labels" | sed -n 's/^ *Test *#[0-9]*: //p')
+  declare -A known=()
+  while read -r t; do known[$t]=1; done < <(cmake --build "$build_dir" --target help |
+    sed -n 's/^\.\.\. \([^ ]*\).*/\1/p')
+  declare -A chosen=()
+  for name in "${names[@]}"; do
+    t="$name"
+    while [[ -z "${known[$t]:-}" && "$t" == *_* ]]; do t="${t%_*}"; done
+    [[ -n "${known[$t]:-}" ]] || { log "no build target for test '$name'"; exit 1; }
+    chosen[$t]=1
+  done
+  targets=("${!chosen[@]}")
   [[ ${#targets[@]} -gt 0 ]] || { log "no test matches -L '$labels'"; exit 1; }
   log "building ${#targets[@]} test targets with $jobs jobs in $build_dir"
   cmake --build "$build_dir" -j "$jobs" --target "${targets[@]}"

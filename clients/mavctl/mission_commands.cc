@@ -41,6 +41,7 @@ Result<std::string> Address(const std::string& flag, const std::string& port_env
 
 struct RunFlags {
   std::string mission_path, out_dir, json_path, pose_source = "vo", controller = "paper";
+  std::string vo_method = "sparse-subpixel";
   std::string simulator, localization, mapping, planning, control, map = "truth";
   uint64_t seed = 1;
   double vo_latency_s = 0.05, max_speed = 0, timeout_s = 900, camera_pitch_deg = 0;
@@ -66,6 +67,12 @@ Result<ServiceMissionOptions> OptionsFrom(const RunFlags& f) {
                                    " is not one of paper, lee");
   }
   o.vehicle.controller = *controller;
+  const std::optional<localization::Method> method = localization::ParseMethod(f.vo_method);
+  if (!method) {
+    return Status::InvalidArgument("--vo-method: " + QuoteForError(f.vo_method) +
+                                   " is not one of sparse-pixel, sparse-subpixel, dense");
+  }
+  o.vo_method = *method;
   if (f.max_speed > 0) o.planning.limits = mission::SpeedLimitsForMaxSpeed(f.max_speed);
   o.lockstep_wait_s = f.lockstep_wait_s;
   if (f.map != "truth" && f.map != "online") {
@@ -90,6 +97,8 @@ FlagParser MakeRunFlags(RunFlags* f) {
                   "the estimator's pose: vo (mav-localization on the rendered images), contest "
                   "(the contest's 10 Hz sensor), truth (debugging)");
   flags.AddString("controller", &f->controller, "paper or lee");
+  flags.AddString("vo-method", &f->vo_method,
+                  "mav-localization's VO: sparse-subpixel, sparse-pixel or dense");
   flags.AddDouble("vo-latency", &f->vo_latency_s, "modelled VO latency, s (capture to estimator)",
                   0.001, 0.5);
   flags.AddDouble("camera-pitch", &f->camera_pitch_deg,

@@ -4,6 +4,7 @@
 //
 //   mavctl mission run --mission FILE [--seed S] [--pose-source vo|contest|truth]
 //                      [--camera-pitch DEG] [--vo-latency S] [--controller paper|lee]
+//                      [--vo-method sparse-subpixel|sparse-pixel|dense]
 //                      [--max-speed V] [--timeout S] [--face-goals] [--map truth|online]
 //                      [--out DIR] [--json FILE] [--quiet] [--simulator A] [--localization A]
 //                      [--mapping A] [--planning A] [--control A]

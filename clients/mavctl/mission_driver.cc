@@ -376,6 +376,8 @@ Status ServiceDriver::Impl::ConfigureLocalization(const geometry::SE3& T_world_b
   request.mutable_calibration()->set_simulator_address(addresses.simulator);
   service_common::ToProto(T_world_body * T_vehicle_rig, request.mutable_initial_pose());
   request.set_output_frame("body");
+  // The vehicle's IMU in the rig's frame: the dense VO's gyro, as the in-process driver feeds it.
+  service_common::ToProto(T_vehicle_rig.Inverse(), request.mutable_t_body_imu());
   v1::LocalizationStatus status;
   return Unary(
       "mav-localization", addresses.localization, "Configure",

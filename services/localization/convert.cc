@@ -156,6 +156,11 @@ Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& 
   if (request.has_initial_pose()) {
     MAV_ASSIGN_OR_RETURN(o.T_world_body0, PoseFromProto(request.initial_pose(), "initial_pose"));
   }
+  if (request.has_t_body_imu()) {
+    MAV_ASSIGN_OR_RETURN(const geometry::SE3 T_body_imu,
+                         PoseFromProto(request.t_body_imu(), "t_body_imu"));
+    config.R_body_imu = T_body_imu.Rotation();
+  }
   const std::string& frame = request.output_frame();
   if (frame.empty() || frame == "body") {
     o.output_frame = OutputFrame::kBody;
@@ -265,6 +270,7 @@ void ToProto(const LocalizerConfig& config, v1::LocalizationConfigureRequest* ou
   ToProto(c.T_world_body0, out->mutable_initial_pose());
   out->set_output_frame(localization::OutputFrameName(c.output_frame));
   out->set_queue_length(static_cast<uint32_t>(config.queue_length));
+  ToProto(geometry::SE3(config.R_body_imu, Eigen::Vector3d::Zero()), out->mutable_t_body_imu());
 }
 
 void ToProto(const LocalizerStatus& status, bool dds_input, v1::LocalizationStatus* out) {

@@ -208,9 +208,11 @@ Result<RigPose> Localizer::Process(StereoInput input, const Termination& deadlin
   return pose;
 }
 
-void Localizer::AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_body) {
+void Localizer::AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_imu) {
   std::lock_guard<std::mutex> lock(mutex_);
-  pending_gyro_.push_back({t_ns, omega_body});
+  const Eigen::Quaterniond R_body_imu =
+      config_.has_value() ? config_->R_body_imu : Eigen::Quaterniond::Identity();
+  pending_gyro_.push_back({t_ns, R_body_imu * omega_imu});
   while (pending_gyro_.size() > localization::RigOdometry::kGyroHistory) pending_gyro_.pop_front();
 }
 

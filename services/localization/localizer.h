@@ -42,6 +42,8 @@ struct LocalizerConfig {
   localization::RigOdometryOptions odometry;
   // Input queue length in frames, [1, 100].
   int queue_length = 2;
+  // The IMU's orientation in the body frame: AddGyro's samples are rotated by it.
+  Eigen::Quaterniond R_body_imu = Eigen::Quaterniond::Identity();
 
   bool IsValid(std::string* why) const;
 };
@@ -114,10 +116,11 @@ class Localizer {
   // INVALID_ARGUMENT when malformed (counted as rejected), FAILED_PRECONDITION unconfigured.
   Status SubmitLive(StereoInput input);
 
-  // One gyro sample of the IMU topic (body frame, rad/s), from any thread: buffered (at most
-  // RigOdometry::kGyroHistory, the oldest dropped) and handed to the odometry on the worker
-  // before the next frame (dense VO: rotation prior and consistency check, dense_vo.h).
-  void AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_body);
+  // One gyro sample of the IMU topic (the IMU's frame, rad/s), from any thread: rotated into the
+  // body frame (LocalizerConfig::R_body_imu), buffered (at most RigOdometry::kGyroHistory, the
+  // oldest dropped) and handed to the odometry on the worker before the next frame (dense VO:
+  // rotation prior and consistency check, dense_vo.h).
+  void AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_imu);
   // Counts a live frame that was malformed before it could become a StereoInput (bad checksum).
   void CountRejected();
 

@@ -286,6 +286,9 @@ TEST_F(LocalizationContractTest, ConfigureRejectsOutOfRangeOptionsNamingTheField
   other = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL);
   other.mutable_initial_pose();  // set, but the all-zero quaternion is not the identity
   ExpectInvalid(Configure(other), "initial_pose.orientation:");
+  other = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL);
+  other.mutable_t_body_imu()->mutable_orientation()->set_z(3.0);
+  ExpectInvalid(Configure(other), "t_body_imu.orientation:");
   EXPECT_EQ(GetStatus().state(), v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED);
 }
 
@@ -429,12 +432,19 @@ TEST_F(LocalizationContractTest, ConfigureReportsTheEffectiveConfiguration) {
   EXPECT_EQ(config.queue_length(), 2u);
   EXPECT_EQ(config.output_frame(), "body");
   EXPECT_DOUBLE_EQ(config.initial_pose().orientation().w(), 1.0);
+  EXPECT_DOUBLE_EQ(config.t_body_imu().orientation().w(), 1.0) << "unset: the body is the IMU";
   EXPECT_FALSE(config.disable_dds_input());
 
   request = ConfigureRequest(v1::LOCALIZATION_METHOD_DENSE);
   request.set_disable_dds_input(true);
   request.set_queue_length(5);
+  // A vehicle's IMU under a forward rig (a mission flight): x up, z forward.
+  request.mutable_t_body_imu()->mutable_orientation()->set_w(0.5);
+  request.mutable_t_body_imu()->mutable_orientation()->set_x(0.5);
+  request.mutable_t_body_imu()->mutable_orientation()->set_y(0.5);
+  request.mutable_t_body_imu()->mutable_orientation()->set_z(0.5);
   ASSERT_TRUE(Configure(request, &status).ok());
+  EXPECT_DOUBLE_EQ(status.config().t_body_imu().orientation().x(), 0.5);
   EXPECT_EQ(status.method(), v1::LOCALIZATION_METHOD_DENSE);
   EXPECT_FALSE(status.dds_input());
   EXPECT_FALSE(input_.stereo_input());

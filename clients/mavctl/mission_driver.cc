@@ -547,6 +547,7 @@ Result<mission::VehicleView> ServiceDriver::Advance(double dt_s) {
   v.poses_rejected = e.poses_gated();
   v.collisions = flight.collisions_size();
   v.map_version = s.map_version;
+  v.map_keyframes = s.figures.keyframes;
   const v1::GroundTruthState& truth = flight.truth();
   v.truth = mission::TrueState{FromProto(truth.t_world_body().position()),
                                FromProto(truth.t_world_body().orientation()),

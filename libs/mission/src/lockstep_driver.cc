@@ -379,6 +379,7 @@ Result<VehicleView> LockstepDriver::Advance(double dt_s) {
   v.poses_rejected = s.ap->estimator().counters().poses_rejected;
   v.collisions = s.sim->collision_count();
   v.map_version = s.map_version;
+  v.map_keyframes = s.mapper ? s.mapper->num_keyframes() : 0;
   v.truth = TrueState{s.out->truth.p_world, s.out->truth.q_world_body, s.out->truth.v_world,
                       s.out->truth.omega_body};
   s.recorder->Offer(v);

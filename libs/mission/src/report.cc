@@ -37,11 +37,17 @@ MissionProgressCallback ProgressLinePrinter(bool quiet, std::function<std::strin
     if (p.t_s < *next_line_s && !last) return;
     *next_line_s = p.t_s + (tty ? 0.5 : 5.0);
     const VehicleView& v = *p.vehicle;
-    std::fprintf(stderr, "%st=%6.1f s  %-13s goal %d/%d  speed %.2f m/s  pose %s (age %.2f s)%s%s",
-                 tty ? "\r" : "", p.t_s, MissionPhaseName(p.phase), p.goal + 1, p.goals,
-                 v.v_est.norm(), v.localization_state.c_str(),
-                 std::isfinite(v.pose_age_s) ? v.pose_age_s : -1.0,
-                 extra ? ("  " + extra()).c_str() : "", tty && !last ? "   " : "\n");
+    char map[64] = "";
+    if (v.map_keyframes > 0 || v.map_version > 0) {
+      std::snprintf(map, sizeof(map), "  map %lld keyframes, v%llu",
+                    static_cast<long long>(v.map_keyframes),
+                    static_cast<unsigned long long>(v.map_version));
+    }
+    std::fprintf(
+        stderr, "%st=%6.1f s  %-13s goal %d/%d  speed %.2f m/s  pose %s (age %.2f s)%s%s%s",
+        tty ? "\r" : "", p.t_s, MissionPhaseName(p.phase), p.goal + 1, p.goals, v.v_est.norm(),
+        v.localization_state.c_str(), std::isfinite(v.pose_age_s) ? v.pose_age_s : -1.0, map,
+        extra ? ("  " + extra()).c_str() : "", tty && !last ? "   " : "\n");
   };
 }
 

@@ -51,6 +51,7 @@ struct VehicleView {
   uint64_t poses_rejected = 0;     // by the estimator's gate, since the start
   int64_t collisions = 0;          // contacts with the world so far (a simulator knows them)
   uint64_t map_version = 0;        // changes whenever the planner's map changed
+  int64_t map_keyframes = 0;       // keyframes in an online map (0: a fixed map)
   std::optional<TrueState> truth;  // ground truth, where a simulator gives it
 };
 

@@ -56,10 +56,11 @@ struct MissionFigures {
   std::optional<RuntimeStats> tick_ms;
 };
 
-// The live progress line on stderr: the vehicle's time, the phase, goal i of n, the speed and
-// the pose source's state and age, every 0.5 s of the vehicle's time on a terminal (one line
-// rewritten, ended by the next output) and every 5 s otherwise; nothing when `quiet`. `extra`
-// (may be null) adds to the line (e.g. the services' map size).
+// The live progress line on stderr: the vehicle's time, the phase, goal i of n, the speed, the
+// pose source's state and age and (an online map) its keyframes and version, every 0.5 s of the
+// vehicle's time on a terminal (one line rewritten, ended by the next output) and every 5 s
+// otherwise; nothing when `quiet`. `extra` (may be null) adds to the line (e.g. the services' map
+// size).
 MissionProgressCallback ProgressLinePrinter(bool quiet,
                                             std::function<std::string()> extra = nullptr);
 

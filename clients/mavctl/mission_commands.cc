@@ -11,6 +11,7 @@
 #include "mav/common/file.h"
 #include "mav/common/text.h"
 #include "mav/dataset/mission_file.h"
+#include "mav/mission/lockstep_driver.h"
 #include "mav/mission/mission.h"
 #include "mav/mission/report.h"
 #include "mav/transport/flags.h"
@@ -75,11 +76,12 @@ Result<ServiceMissionOptions> OptionsFrom(const RunFlags& f) {
   o.vo_method = *method;
   if (f.max_speed > 0) o.planning.limits = mission::SpeedLimitsForMaxSpeed(f.max_speed);
   o.lockstep_wait_s = f.lockstep_wait_s;
-  if (f.map != "truth" && f.map != "online") {
+  const std::optional<mission::MapSource> map = mission::ParseMapSource(f.map);
+  if (!map) {
     return Status::InvalidArgument("--map: " + QuoteForError(f.map) +
                                    " is not one of truth, online");
   }
-  o.online_map = f.map == "online";
+  o.online_map = *map == mission::MapSource::kOnline;
   return o;
 }
 

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "clients/plot/mission_flags.h"
 #include "clients/plot/mission_plot.h"
 #include "commands.h"
 #include "mav/common/file.h"
@@ -38,46 +39,21 @@ int Fail(const std::string& message, int code = 1) {
   return code;
 }
 
-// The command line.
+// The command line: the flags mavctl mission run shares, and this driver's own.
 struct Flags {
-  std::string mission_path, out_dir, json_path, pose_source = "vo";
-  std::string vo_method = "sparse-subpixel", controller = "paper", outage, world, map = "truth";
-  uint64_t seed = 1;
-  double vo_latency_s = 0.05, max_speed = 0, timeout_s = 900, camera_pitch_deg = 0;
-  bool quiet = false;
-  bool face_goals = false;
+  plot::MissionFlags mission;
+  std::string outage, world;
 };
 
 // The driver's options from the flags; InvalidArgument naming the flag.
 Result<mission::LockstepOptions> DriverOptions(const Flags& f) {
+  MAV_ASSIGN_OR_RETURN(const plot::MissionFlagOptions shared,
+                       plot::MissionOptionsFromFlags(f.mission));
   mission::LockstepOptions options;
-  options.vehicle.seed = f.seed;
-  options.vehicle.vo_latency_s = f.vo_latency_s;
-  options.vehicle.camera_pitch_rad = f.camera_pitch_deg * M_PI / 180;
-  const std::optional<mission::PoseSource> source = mission::ParsePoseSource(f.pose_source);
-  if (!source) {
-    return Status::InvalidArgument("--pose-source: " + QuoteForError(f.pose_source) +
-                                   " is not one of vo, contest, truth");
-  }
-  options.vehicle.pose_source = *source;
-  const std::optional<mission::MapSource> map = mission::ParseMapSource(f.map);
-  if (!map) {
-    return Status::InvalidArgument("--map: " + QuoteForError(f.map) +
-                                   " is not one of truth, online");
-  }
-  options.map_source = *map;
-  const std::optional<localization::Method> method = localization::ParseMethod(f.vo_method);
-  if (!method) {
-    return Status::InvalidArgument("--vo-method: " + QuoteForError(f.vo_method) +
-                                   " is not one of sparse-pixel, sparse-subpixel, dense");
-  }
-  options.vo_method = *method;
-  const std::optional<control::ControllerType> controller = mission::ParseController(f.controller);
-  if (!controller) {
-    return Status::InvalidArgument("--controller: " + QuoteForError(f.controller) +
-                                   " is not one of paper, lee");
-  }
-  options.vehicle.controller = *controller;
+  options.vehicle = shared.vehicle;
+  options.vo_method = shared.vo_method;
+  options.map_source = shared.map;
+  options.planning = shared.planning;
   if (!f.outage.empty()) {
     const std::vector<std::string_view> parts = SplitFields(f.outage, ',');
     mission::LocalizationOutage outage;
@@ -95,7 +71,6 @@ Result<mission::LockstepOptions> DriverOptions(const Flags& f) {
     }
     options.outages.push_back(outage);
   }
-  if (f.max_speed > 0) options.planning.limits = mission::SpeedLimitsForMaxSpeed(f.max_speed);
   return options;
 }
 
@@ -108,44 +83,22 @@ FlagParser MakeFlags(Flags* f) {
       "simulated vehicle\nin the mission's world, its rendered stereo camera and IMU, the VO, the "
       "estimator and controller,\nthe planner and the mission logic. Exit status 0 only when the "
       "mission completed.");
-  flags.AddString("mission", &f->mission_path, "mission file (YAML, docs/formats.md)");
-  flags.AddUint64("seed", &f->seed, "seed of the simulation (textures, noise, roadmap)");
-  flags.AddString("pose-source", &f->pose_source,
-                  "the estimator's pose: vo (stereo VO on the rendered images), contest (the "
-                  "contest's 10 Hz sensor), truth (debugging)");
-  flags.AddString("map", &f->map,
-                  "the planner's map: truth (the world's exact occupancy) or online (built during "
-                  "the flight from the VO's keyframes; needs --pose-source vo)");
+  plot::AddMissionFlags(plot::MissionDriverKind::kInProcess, &flags, &f->mission);
   flags.AddString("world", &f->world,
                   "fly in this preset instead of the file's world (room-easy, room-medium and "
                   "room-hard share one layout)");
-  flags.AddString("vo-method", &f->vo_method, "sparse-subpixel, sparse-pixel or dense");
-  flags.AddString("controller", &f->controller, "paper or lee");
-  flags.AddDouble("vo-latency", &f->vo_latency_s, "modelled VO latency, s (capture to estimator)",
-                  0, 0.5);
-  flags.AddDouble("camera-pitch", &f->camera_pitch_deg,
-                  "the stereo camera's downward pitch on the vehicle, degrees", 0, 60);
-  flags.AddDouble("max-speed", &f->max_speed, "planned speed limit, m/s (0 = the world's default)",
-                  0, 20);
   flags.AddString("localization-outage", &f->outage,
                   "START,DURATION: the localization is down for DURATION s from START s and comes "
                   "back restarted (fault injection)");
-  flags.AddDouble("timeout", &f->timeout_s,
-                  "abort the mission after this long in simulated time, s (outcome aborted)", 1,
-                  7000);
-  flags.AddString("out", &f->out_dir, "write trajectory.csv and mission.png here");
-  flags.AddString("json", &f->json_path, "write the report here");
-  flags.AddBool("quiet", &f->quiet, "no progress line");
-  flags.AddBool("face-goals", &f->face_goals,
-                "turn to face each goal before its leg (always with --map online)");
   return flags;
 }
 
 }  // namespace
 
 int RunMission(const std::vector<std::string>& args) {
-  Flags f;
-  FlagParser flags = MakeFlags(&f);
+  Flags flags_in;
+  FlagParser flags = MakeFlags(&flags_in);
+  const plot::MissionFlags& f = flags_in.mission;
   bool help = false;
   if (Status s = flags.Parse(args, nullptr, &help); !s.ok()) {
     return Fail(s.message() + "\n" + flags.Help(), 2);
@@ -155,16 +108,13 @@ int RunMission(const std::vector<std::string>& args) {
     return 0;
   }
   if (f.mission_path.empty()) return Fail("--mission: required\n" + flags.Help(), 2);
-  Result<mission::LockstepOptions> options = DriverOptions(f);
+  Result<mission::LockstepOptions> options = DriverOptions(flags_in);
   if (!options.ok()) return Fail(options.status().message(), 2);
 
   Result<dataset::MissionSpec> spec = dataset::ReadMissionFile(f.mission_path);
   if (!spec.ok()) return Fail(spec.status().message() + " (no take-off)");
-  if (!f.world.empty()) spec->world = f.world;
-  mission::MissionOptions mission_options;
-  mission_options.timeout_s = f.timeout_s;
-  mission_options.face_goals = f.face_goals || f.map == "online";
-  if (spec->world == "plant") mission_options.goal_tolerance_m = 0.5;
+  if (!flags_in.world.empty()) spec->world = flags_in.world;
+  const mission::MissionOptions mission_options = plot::MissionLogicOptions(f, *spec);
 
   const auto wall_start = std::chrono::steady_clock::now();
   std::fprintf(stderr, "%s: %s in %s, seed %llu, pose source %s: building the world and map\n",

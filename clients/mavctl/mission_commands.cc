@@ -7,6 +7,7 @@
 
 #include "clients/mavctl/connection.h"
 #include "clients/mavctl/mission_driver.h"
+#include "clients/plot/mission_flags.h"
 #include "clients/plot/mission_plot.h"
 #include "mav/common/file.h"
 #include "mav/common/text.h"
@@ -40,48 +41,23 @@ Result<std::string> Address(const std::string& flag, const std::string& port_env
   return "127.0.0.1:" + std::to_string(port);
 }
 
+// The command line: the flags mav-eval mission shares, and this driver's own.
 struct RunFlags {
-  std::string mission_path, out_dir, json_path, pose_source = "vo", controller = "paper";
-  std::string vo_method = "sparse-subpixel";
-  std::string simulator, localization, mapping, planning, control, map = "truth";
-  uint64_t seed = 1;
-  double vo_latency_s = 0.05, max_speed = 0, timeout_s = 900, camera_pitch_deg = 0;
+  plot::MissionFlags mission;
+  std::string simulator, localization, mapping, planning, control;
   double lockstep_wait_s = 2;
-  bool quiet = false, face_goals = false;
 };
 
 // The driver's options from the flags; InvalidArgument naming the flag.
 Result<ServiceMissionOptions> OptionsFrom(const RunFlags& f) {
+  MAV_ASSIGN_OR_RETURN(const plot::MissionFlagOptions shared,
+                       plot::MissionOptionsFromFlags(f.mission));
   ServiceMissionOptions o;
-  o.vehicle.seed = f.seed;
-  o.vehicle.vo_latency_s = f.vo_latency_s;
-  o.vehicle.camera_pitch_rad = f.camera_pitch_deg * M_PI / 180;
-  const std::optional<mission::PoseSource> source = mission::ParsePoseSource(f.pose_source);
-  if (!source) {
-    return Status::InvalidArgument("--pose-source: " + QuoteForError(f.pose_source) +
-                                   " is not one of vo, contest, truth");
-  }
-  o.vehicle.pose_source = *source;
-  const std::optional<control::ControllerType> controller = mission::ParseController(f.controller);
-  if (!controller) {
-    return Status::InvalidArgument("--controller: " + QuoteForError(f.controller) +
-                                   " is not one of paper, lee");
-  }
-  o.vehicle.controller = *controller;
-  const std::optional<localization::Method> method = localization::ParseMethod(f.vo_method);
-  if (!method) {
-    return Status::InvalidArgument("--vo-method: " + QuoteForError(f.vo_method) +
-                                   " is not one of sparse-pixel, sparse-subpixel, dense");
-  }
-  o.vo_method = *method;
-  if (f.max_speed > 0) o.planning.limits = mission::SpeedLimitsForMaxSpeed(f.max_speed);
+  o.vehicle = shared.vehicle;
+  o.vo_method = shared.vo_method;
+  o.planning = shared.planning;
+  o.online_map = shared.map == mission::MapSource::kOnline;
   o.lockstep_wait_s = f.lockstep_wait_s;
-  const std::optional<mission::MapSource> map = mission::ParseMapSource(f.map);
-  if (!map) {
-    return Status::InvalidArgument("--map: " + QuoteForError(f.map) +
-                                   " is not one of truth, online");
-  }
-  o.online_map = *map == mission::MapSource::kOnline;
   return o;
 }
 
@@ -93,35 +69,11 @@ FlagParser MakeRunFlags(RunFlags* f) {
       "mav-control, mav-planning), lock-stepped: the same mission logic, vehicle, map and "
       "roadmap as mav-eval mission in one process, the same seed giving the same flight. "
       "Exit status 0 only when the mission completed.");
-  flags.AddString("mission", &f->mission_path, "mission file (YAML, docs/formats.md)");
-  flags.AddUint64("seed", &f->seed, "seed of the simulation (textures, noise, roadmap)");
-  flags.AddString("pose-source", &f->pose_source,
-                  "the estimator's pose: vo (mav-localization on the rendered images), contest "
-                  "(the contest's 10 Hz sensor), truth (debugging)");
-  flags.AddString("controller", &f->controller, "paper or lee");
-  flags.AddString("vo-method", &f->vo_method,
-                  "mav-localization's VO: sparse-subpixel, sparse-pixel or dense");
-  flags.AddDouble("vo-latency", &f->vo_latency_s, "modelled VO latency, s (capture to estimator)",
-                  0.001, 0.5);
-  flags.AddDouble("camera-pitch", &f->camera_pitch_deg,
-                  "the stereo camera's downward pitch on the vehicle, degrees", 0, 60);
-  flags.AddDouble("max-speed", &f->max_speed, "planned speed limit, m/s (0 = the world's default)",
-                  0, 20);
-  flags.AddDouble("timeout", &f->timeout_s,
-                  "abort the mission after this long in simulated time, s (outcome aborted)", 1,
-                  7000);
+  plot::AddMissionFlags(plot::MissionDriverKind::kServices, &flags, &f->mission);
   flags.AddDouble("lockstep-wait", &f->lockstep_wait_s,
                   "how long mav-control waits for a frame's pose before flying on without it, "
                   "wall s",
                   0.01, 60);
-  flags.AddString("map", &f->map,
-                  "the planner's map: truth (the world's exact occupancy) or online (built by "
-                  "mav-mapping during the flight from the VO's keyframes; needs --pose-source vo)");
-  flags.AddBool("face-goals", &f->face_goals,
-                "turn to face each goal before its leg (always with --map online)");
-  flags.AddString("out", &f->out_dir, "write trajectory.csv, mission.png and map.bt here");
-  flags.AddString("json", &f->json_path, "write the report here");
-  flags.AddBool("quiet", &f->quiet, "no progress line");
   flags.AddString("simulator", &f->simulator,
                   "mav-simulator's host:port (127.0.0.1 and MAV_SIMULATOR_PORT or 50051)");
   flags.AddString("localization", &f->localization,
@@ -137,19 +89,20 @@ FlagParser MakeRunFlags(RunFlags* f) {
 }
 
 int Run(const std::vector<std::string>& args) {
-  RunFlags f;
-  FlagParser flags = MakeRunFlags(&f);
+  RunFlags flags_in;
+  FlagParser flags = MakeRunFlags(&flags_in);
   ParseOrExit(&flags, nullptr, args);
+  const plot::MissionFlags& f = flags_in.mission;
   if (f.mission_path.empty()) return Usage("run: --mission: required");
-  Result<ServiceMissionOptions> options = OptionsFrom(f);
+  Result<ServiceMissionOptions> options = OptionsFrom(flags_in);
   if (!options.ok()) return Usage("run: " + options.status().message());
   ServiceAddresses addresses;
   for (auto [flag, env, port, target] :
-       {std::tuple{&f.simulator, "MAV_SIMULATOR_PORT", 50051, &addresses.simulator},
-        std::tuple{&f.localization, "MAV_LOCALIZATION_PORT", 50052, &addresses.localization},
-        std::tuple{&f.mapping, "MAV_MAPPING_PORT", 50053, &addresses.mapping},
-        std::tuple{&f.planning, "MAV_PLANNING_PORT", 50054, &addresses.planning},
-        std::tuple{&f.control, "MAV_CONTROL_PORT", 50055, &addresses.control}}) {
+       {std::tuple{&flags_in.simulator, "MAV_SIMULATOR_PORT", 50051, &addresses.simulator},
+        std::tuple{&flags_in.localization, "MAV_LOCALIZATION_PORT", 50052, &addresses.localization},
+        std::tuple{&flags_in.mapping, "MAV_MAPPING_PORT", 50053, &addresses.mapping},
+        std::tuple{&flags_in.planning, "MAV_PLANNING_PORT", 50054, &addresses.planning},
+        std::tuple{&flags_in.control, "MAV_CONTROL_PORT", 50055, &addresses.control}}) {
     Result<std::string> address = Address(*flag, env, port);
     if (!address.ok()) return Usage(address.status().message());
     *target = *address;
@@ -160,10 +113,7 @@ int Run(const std::vector<std::string>& args) {
   if (!text.ok()) return Usage(text.status().message() + " (no take-off)");
   Result<dataset::MissionSpec> spec = dataset::ParseMissionYaml(*text, f.mission_path);
   if (!spec.ok()) return Usage(spec.status().message() + " (no take-off)");
-  mission::MissionOptions mission_options;
-  mission_options.timeout_s = f.timeout_s;
-  mission_options.face_goals = f.face_goals || options->online_map;
-  if (spec->world == "plant") mission_options.goal_tolerance_m = 0.5;
+  const mission::MissionOptions mission_options = plot::MissionLogicOptions(f, *spec);
 
   const auto wall_start = std::chrono::steady_clock::now();
   auto say = [&](const std::string& what) {

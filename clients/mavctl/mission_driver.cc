@@ -679,7 +679,19 @@ Result<Eigen::Vector3d> ServiceDriver::LandingSpot(const Eigen::Vector3d& above)
 Status ServiceDriver::SeedLocalization(const geometry::SE3& T_world_body) {
   Impl& s = *impl_;
   if (!s.vo()) return Status::FailedPrecondition("the pose source is not the VO");
-  return s.ConfigureLocalization(T_world_body);
+  // The estimator may have corrected the VO's frame (ControlPoseSource.align_tilt_s): the VO
+  // restarts in its own frame, where the estimator's correction still applies.
+  v1::ControlState state;
+  v1::ControlGetStateRequest get_state;
+  MAV_RETURN_IF_ERROR(
+      s.Unary("mav-control", s.addresses.control, "GetState",
+              [&](grpc::ClientContext* c) { return s.control->GetState(c, get_state, &state); }));
+  geometry::SE3 frame;
+  if (state.estimate().source_frames_size() > 0) {
+    MAV_ASSIGN_OR_RETURN(frame, service_common::PoseFromProto(state.estimate().source_frames(0),
+                                                              "estimate.source_frames[0]"));
+  }
+  return s.ConfigureLocalization(frame.Inverse() * T_world_body);
 }
 
 const std::vector<mission::FlightSample>& ServiceDriver::record() const {

@@ -404,6 +404,10 @@ ControlCoreState ControlCore::GetState() const {
   s.estimator_initialized = autopilot_->estimator().initialized();
   s.last_pose_arrival_ns = autopilot_->last_pose_arrival_ns();
   s.poses_gated = autopilot_->estimator().counters().poses_rejected;
+  const control::Estimator& estimator = autopilot_->estimator();
+  for (size_t i = 0; i < estimator.options().sources.size(); ++i) {
+    s.source_frames.push_back(estimator.source_frame(static_cast<int>(i)));
+  }
   s.moving = autopilot_->moving();
   return s;
 }

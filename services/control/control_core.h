@@ -119,6 +119,7 @@ struct ControlCoreState {
   bool estimator_initialized = false;
   int64_t last_pose_arrival_ns = 0;  // the IMU time it was accepted at
   uint64_t poses_gated = 0;
+  std::vector<geometry::SE3> source_frames;  // control::Estimator::source_frame, per source
   bool moving = false;
 };
 

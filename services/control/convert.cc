@@ -200,6 +200,8 @@ Status EstimatorFromProto(const v1::EstimatorConfig& e, control::EstimatorOption
           Pick(p.position_sigma_m(), field + ".position_sigma_m", &src.position_sigma_m));
       MAV_RETURN_IF_ERROR(Pick(p.orientation_sigma_rad(), field + ".orientation_sigma_rad",
                                &src.orientation_sigma_rad));
+      MAV_RETURN_IF_ERROR(Pick(p.tilt_sigma_rad(), field + ".tilt_sigma_rad", &src.tilt_sigma_rad));
+      MAV_RETURN_IF_ERROR(Pick(p.align_tilt_s(), field + ".align_tilt_s", &src.align_tilt_s));
       if (p.has_t_body_sensor()) {
         MAV_ASSIGN_OR_RETURN(src.T_body_sensor,
                              PoseFromProto(p.t_body_sensor(), field + ".t_body_sensor"));
@@ -356,6 +358,8 @@ void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out) {
     // The delays only size the buffer; the effective buffer is reported above.
     p->set_position_sigma_m(e.sources[i].position_sigma_m);
     p->set_orientation_sigma_rad(e.sources[i].orientation_sigma_rad);
+    p->set_tilt_sigma_rad(e.sources[i].tilt_sigma_rad);
+    p->set_align_tilt_s(e.sources[i].align_tilt_s);
     ToProto(e.sources[i].T_body_sensor, p->mutable_t_body_sensor());
     if (i < config.lockstep_poses.size()) {
       p->set_lockstep_latency_s(config.lockstep_poses[i].latency_s);
@@ -614,6 +618,7 @@ void ToProto(const ControlCoreState& s, v1::ControlState* out) {
   e->set_initialized(s.estimator_initialized);
   e->set_last_pose_arrival_t_ns(s.last_pose_arrival_ns);
   e->set_poses_gated(s.poses_gated);
+  for (const geometry::SE3& frame : s.source_frames) ToProto(frame, e->add_source_frames());
   out->set_moving(s.moving);
   v1::TrajectorySample* r = out->mutable_reference();
   r->set_t_s(a.reference.t_s);

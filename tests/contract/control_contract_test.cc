@@ -25,6 +25,7 @@
 #include "mav/transport/grpc_server.h"
 #include "mav/v1/control.grpc.pb.h"
 #include "mav/v1/planning.grpc.pb.h"
+#include "services/common/proto_codec.h"
 #include "services/control/control_core.h"
 #include "services/control/control_service.h"
 #include "services/control/convert.h"
@@ -391,7 +392,56 @@ TEST_F(ControlContractTest, ConfigureRejectsBadInputNamingTheField) {
         r->mutable_estimator()->mutable_pose_sources(0)->set_lockstep_wait_s(100);
       },
       "estimator.pose_sources[0].lockstep_wait_s");
+  ExpectConfigureInvalid(
+      [](R* r) { r->mutable_estimator()->mutable_pose_sources(0)->set_tilt_sigma_rad(-0.1); },
+      "estimator.pose_sources[0].tilt_sigma_rad");
+  ExpectConfigureInvalid(
+      [](R* r) { r->mutable_estimator()->mutable_pose_sources(0)->set_align_tilt_s(std::nan("")); },
+      "estimator.pose_sources[0].align_tilt_s");
+  ExpectConfigureInvalid(
+      [](R* r) { r->mutable_estimator()->mutable_pose_sources(0)->set_align_tilt_s(-1); },
+      "estimator.pose_sources[0].align_tilt_s");
   EXPECT_FALSE(GetStatus().configured()) << "nothing of this was applied";
+}
+
+// A source whose frame is tipped against gravity (a VO's tilt drift), with the gravity
+// alignment on: the estimate's config echoes it, and GetState reports the frame the estimator
+// turned it by (a restarted VO is seeded through it); a plain source reports the identity.
+TEST_F(ControlContractTest, TiltAlignedSourceReportsItsCorrectedFrame) {
+  const Eigen::Quaterniond tip(Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()));
+  auto fly_tipped = [&](double align_tilt_s) {
+    v1::ControlConfigureRequest request = TaskRequest();
+    v1::ControlPoseSource* source = request.mutable_estimator()->mutable_pose_sources(0);
+    source->set_frame_id("body");
+    source->set_rate_hz(20);
+    source->set_tilt_sigma_rad(0.17);
+    source->set_align_tilt_s(align_tilt_s);
+    EXPECT_TRUE(Configure(request).ok());
+    // 10 s level at rest, a pose every 50 ms: true for the first 5 s (the estimate converges,
+    // learning its offsets against the source's tilt), then tipped.
+    for (int k = 0; k <= 2000; ++k) {
+      const int64_t t_ns = SecondsToNs(0.005 * k);
+      core_->OnImu(control::ImuMeasurement{t_ns, Eigen::Vector3d::Zero(),
+                                           Eigen::Vector3d(0, 0, control::kGravity)});
+      const Eigen::Quaterniond q = k < 1000 ? Eigen::Quaterniond::Identity() : tip;
+      if (k % 10 == 0) core_->OnPose("body", t_ns, geometry::SE3(q, Eigen::Vector3d(0, 0, 1)));
+    }
+    const v1::ControlStatus status = GetStatus();
+    EXPECT_DOUBLE_EQ(status.config().estimator().pose_sources(0).align_tilt_s(), align_tilt_s);
+    EXPECT_DOUBLE_EQ(status.config().estimator().pose_sources(0).tilt_sigma_rad(), 0.17);
+    const v1::ControlState state = GetState();
+    EXPECT_EQ(state.estimate().source_frames_size(), 1);
+    const Result<geometry::SE3> frame =
+        service_common::PoseFromProto(state.estimate().source_frames(0), "source_frames[0]");
+    EXPECT_TRUE(frame.ok());
+    return frame.ok() ? geometry::AngleBetween(frame->Rotation(), Eigen::Quaterniond::Identity())
+                      : -1.0;
+  };
+  EXPECT_LT(fly_tipped(0), 1e-9) << "a plain source: the identity";
+  // Turned back toward level by most of the 0.05 rad tip (time constant 1 s, 5 s tipped).
+  const double turned = fly_tipped(1.0);
+  EXPECT_GT(turned, 0.03);
+  EXPECT_LT(turned, 0.06);
 }
 
 // A lock-stepped camera-rate source (a localization service answering every frame of a

@@ -33,6 +33,9 @@ bool EstimatorOptions::IsValid(std::string* why) const {
     if (!t.allFinite() || !sources[i].T_body_sensor.Rotation().coeffs().allFinite()) {
       return fail("sources[" + std::to_string(i) + "].T_body_sensor: must be finite");
     }
+    if (!(sources[i].align_tilt_s >= 0 && std::isfinite(sources[i].align_tilt_s))) {
+      return fail("sources[" + std::to_string(i) + "].align_tilt_s: must be >= 0 (0 = off)");
+    }
   }
   if (weights_override) {
     const CorrectionWeights& w = *weights_override;
@@ -60,9 +63,11 @@ WeightModel EstimatorOptions::ToWeightModel() const {
   m.initial_accel_offset_sigma = initial_accel_offset_sigma;
   m.initial_gyro_offset_sigma = initial_gyro_offset_sigma;
   m.couple_tilt = couple_tilt;
+  // The offsets are learnt against the sources' own tilt while the estimate converges.
+  m.trust_tilt_s = std::min(converge_s, 60.0);
   m.sources.clear();
   for (const PoseSourceOptions& s : sources) {
-    m.sources.push_back({s.rate_hz, s.position_sigma_m, s.orientation_sigma_rad});
+    m.sources.push_back({s.rate_hz, s.position_sigma_m, s.orientation_sigma_rad, s.tilt_sigma_rad});
   }
   return m;
 }
@@ -80,6 +85,7 @@ Estimator::Estimator(const EstimatorOptions& options, WeightSchedule weights)
       static_cast<size_t>(std::ceil(2.0 * options.buffer_s * options.imu_rate_hz)) + 4;
   ring_.resize(capacity);
   updates_per_source_.assign(options.sources.size(), 0);
+  frames_.assign(options.sources.size(), geometry::SE3());
   // Room for every pose of every source within the buffer at up to 4x its nominal rate.
   double poses = 0;
   for (const PoseSourceOptions& s : options.sources) poses += 4.0 * s.rate_hz * options.buffer_s;
@@ -92,6 +98,7 @@ void Estimator::Reset() {
   current_ = EstimatorState();
   counters_ = EstimatorCounters();
   updates_per_source_.assign(options_.sources.size(), 0);
+  frames_.assign(options_.sources.size(), geometry::SE3());
   applied_size_ = 0;
 }
 
@@ -196,7 +203,36 @@ Status Estimator::Gate(const PoseMeasurement& pose, const EstimatorState& x) {
   return Status::FailedPrecondition(why);
 }
 
-Status Estimator::FeedPose(const PoseMeasurement& pose) {
+PoseMeasurement Estimator::Aligned(const PoseMeasurement& pose, const EstimatorState& x,
+                                   geometry::SE3* frame) const {
+  const PoseSourceOptions& src = options_.sources[pose.source];
+  *frame = frames_[pose.source];
+  PoseMeasurement out = pose;
+  out.T_world_sensor = *frame * pose.T_world_sensor;
+  if (src.align_tilt_s <= 0) return out;
+  // The world's up in the body frame, by the estimate and by the pose: the rotation Q (about a
+  // horizontal axis, so the heading stays) that takes the pose's up onto the estimate's is its
+  // tilt error; a fraction of it per pose is the first-order filter of time constant
+  // align_tilt_s.
+  const Eigen::Quaterniond q_meas =
+      out.T_world_sensor.Rotation() * src.T_body_sensor.Rotation().conjugate();
+  const Eigen::Vector3d up_body = x.q_world_body.conjugate() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d up_seen = q_meas * up_body;
+  const Eigen::AngleAxisd full(
+      Eigen::Quaterniond::FromTwoVectors(up_seen, Eigen::Vector3d::UnitZ()));
+  const double fraction = std::min(1.0, 1.0 / (src.rate_hz * src.align_tilt_s));
+  const Eigen::Quaterniond q_fix(Eigen::AngleAxisd(fraction * full.angle(), full.axis()));
+  // Turned about the body's position (whichever sensor the source reports): the corrected
+  // track stays continuous, and the frame is the same for any mounting.
+  const Eigen::Vector3d c = (out.T_world_sensor * src.T_body_sensor.Inverse()).Translation();
+  const geometry::SE3 turn(q_fix, c - q_fix * c);
+  *frame = turn * *frame;
+  out.T_world_sensor = turn * out.T_world_sensor;
+  return out;
+}
+
+Status Estimator::FeedPose(const PoseMeasurement& raw) {
+  PoseMeasurement pose = raw;
   if (pose.source < 0 || pose.source >= static_cast<int>(options_.sources.size())) {
     return Status::InvalidArgument("source: unknown pose source " + std::to_string(pose.source));
   }
@@ -231,7 +267,10 @@ Status Estimator::FeedPose(const PoseMeasurement& pose) {
     ++updates_per_source_[pose.source];
     applied_size_ = 0;
   } else {
+    geometry::SE3 frame;
+    pose = Aligned(raw, x, &frame);
     if (Status gate = Gate(pose, x); !gate.ok()) return gate;
+    frames_[pose.source] = frame;
     // Remember the pose (stamp order) with its weights, forgetting those older than the buffer.
     const int64_t oldest = At(0).imu.t_ns;
     int keep = 0;

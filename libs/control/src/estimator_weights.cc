@@ -38,6 +38,9 @@ bool WeightModel::IsValid(std::string* why) const {
   }
   if (!positive(accel_noise_sigma)) return fail("accel_noise_sigma: must be positive");
   if (!positive(gyro_noise_sigma)) return fail("gyro_noise_sigma: must be positive");
+  if (!non_negative(trust_tilt_s) || trust_tilt_s > 60) {
+    return fail("trust_tilt_s: must be in [0, 60]");
+  }
   if (!non_negative(accel_offset_random_walk)) {
     return fail("accel_offset_random_walk: must be >= 0");
   }
@@ -58,6 +61,9 @@ bool WeightModel::IsValid(std::string* why) const {
     if (!positive(sources[i].position_sigma_m)) return fail(f + "position_sigma_m: must be > 0");
     if (!positive(sources[i].orientation_sigma_rad)) {
       return fail(f + "orientation_sigma_rad: must be > 0");
+    }
+    if (!(sources[i].tilt_sigma_rad >= 0 && std::isfinite(sources[i].tilt_sigma_rad))) {
+      return fail(f + "tilt_sigma_rad: must be >= 0 (0 = orientation_sigma_rad)");
     }
   }
   return true;
@@ -172,8 +178,14 @@ Result<WeightSchedule> ComputeWeightSchedule(const WeightModel& model) {
         const PoseSourceNoise& src = model.sources[s];
         const double rp = src.position_sigma_m * src.position_sigma_m;
         const double rt = src.orientation_sigma_rad * src.orientation_sigma_rad;
+        // The source's own tilt weighs in until trust_tilt_s (see WeightModel).
+        const double tilt_sigma =
+            NsToSeconds((periods * hyper + tick) * imu_ns) < model.trust_tilt_s
+                ? src.orientation_sigma_rad
+                : src.TiltSigma();
+        const double rtilt = tilt_sigma * tilt_sigma;
         CorrectionWeights w;
-        w.horizontal = hor.Update(Eigen::Vector2d(rp, rt));
+        w.horizontal = hor.Update(Eigen::Vector2d(rp, rtilt));
         w.vertical = ver.Update(Eigen::Matrix<double, 1, 1>(rp));
         w.heading = yaw.Update(Eigen::Matrix<double, 1, 1>(rt));
         period_gains[s].push_back(w);
@@ -187,7 +199,9 @@ Result<WeightSchedule> ComputeWeightSchedule(const WeightModel& model) {
           change = std::max(change, RelativeChange(period_gains[s][k], last_period[s][k]));
         }
       }
-      converged = change < 1e-12;
+      // (Not before the sources' tilt changes its weight.)
+      converged =
+          change < 1e-12 && NsToSeconds((periods + 1) * hyper * imu_ns) > model.trust_tilt_s;
     }
     last_period = period_gains;
   }

@@ -130,6 +130,11 @@ struct LockstepDriver::Impl {
                   const geometry::SE3& T_world_rig_true);
   void StepOnce();
   void Capture(int64_t frame);
+  // The VO's pose (in its own, possibly tilt-corrected frame: Estimator::source_frame) for the
+  // vehicle at T_world_body: where a restarted VO starts.
+  geometry::SE3 VoPoseAt(const geometry::SE3& T_world_body) const {
+    return ap->estimator().source_frame(0).Inverse() * T_world_body * T_vehicle_rig;
+  }
   bool InOutage(int64_t t_ns, bool* restart) const;
 };
 
@@ -292,7 +297,7 @@ void LockstepDriver::Impl::Capture(int64_t frame) {
     // puts the vehicle, not at its own last pose: the motion while it was lost is not lost.
     if (options.reseed_after_loss && ap->estimator().initialized()) {
       const control::EstimatorState& e = ap->estimator().state();
-      vo->Reset(geometry::SE3(e.q_world_body, e.p_world) * T_vehicle_rig);
+      vo->Reset(VoPoseAt(geometry::SE3(e.q_world_body, e.p_world)));
     }
     return;
   }
@@ -447,7 +452,7 @@ Result<Eigen::Vector3d> LockstepDriver::LandingSpot(const Eigen::Vector3d& above
 Status LockstepDriver::SeedLocalization(const geometry::SE3& T_world_body) {
   Impl& s = *impl_;
   if (!s.vo) return Status::FailedPrecondition("the pose source is not the VO");
-  s.vo->Reset(T_world_body * s.T_vehicle_rig);
+  s.vo->Reset(s.VoPoseAt(T_world_body));
   s.vo_needs_seed = false;
   s.vo_state = "seeded";
   return Status::Ok();

@@ -54,6 +54,8 @@ bool VehicleOptions::IsValid(std::string* why) const {
   check(vo_latency_s >= 0 && vo_latency_s <= 0.5, "vo_latency_s: must be in [0, 0.5]");
   check(vo_position_sigma_m > 0 && vo_orientation_sigma_rad > 0,
         "vo_position_sigma_m / vo_orientation_sigma_rad: must be positive");
+  check(vo_tilt_sigma_rad > 0, "vo_tilt_sigma_rad: must be positive");
+  check(vo_align_tilt_s >= 0, "vo_align_tilt_s: must be >= 0 (0 = off)");
   check(imu_rate_hz >= 50 && imu_rate_hz <= 1000, "imu_rate_hz: must be in [50, 1000]");
   check(camera_rate_hz > 0 && camera_rate_hz <= imu_rate_hz,
         "camera_rate_hz: must be in (0, imu_rate_hz]");
@@ -125,6 +127,8 @@ control::AutopilotOptions MissionAutopilotOptions(const dataset::FlightTask& tas
     vo.rate_hz = options.camera_rate_hz;
     vo.position_sigma_m = options.vo_position_sigma_m;
     vo.orientation_sigma_rad = options.vo_orientation_sigma_rad;
+    vo.tilt_sigma_rad = options.vo_tilt_sigma_rad;
+    vo.align_tilt_s = options.vo_align_tilt_s;
     vo.T_body_sensor = VehicleRigMount(options.camera_pitch_rad);
     ap.estimator.sources = {vo};
     ap.estimator.buffer_s = std::max(1.0, 2 * options.vo_latency_s + 0.2);

@@ -102,5 +102,31 @@ TEST(EstimatorWeightsTest, TwoSourcesAndDecoupledModel) {
   EXPECT_NE(r.status().message().find("sources[0].position_sigma_m"), std::string::npos);
 }
 
+// A loose tilt (a VO's): the tilt's weight from the orientation residual drops far below the
+// heading's, the tilt is then corrected from the position residuals (gravity) instead; while
+// trust_tilt_s lasts, the tilt keeps the orientation's noise.
+TEST(EstimatorWeightsTest, LooseTiltTakesTheTiltFromGravityAfterTheTrustedStart) {
+  WeightModel m;
+  m.sources[0] = PoseSourceNoise{20, 0.01, 0.005, 0.17};
+  m.trust_tilt_s = 4;
+  const WeightSchedule w = *ComputeWeightSchedule(m);
+  WeightModel tight = m;
+  tight.sources[0].tilt_sigma_rad = 0;
+  const WeightSchedule t = *ComputeWeightSchedule(tight);
+  const CorrectionWeights& loose = w.steady[0];
+  EXPECT_NEAR(loose.heading[0], t.steady[0].heading[0], 1e-12) << "the heading is unchanged";
+  EXPECT_LT(loose.horizontal(3, 1), 0.05 * t.steady[0].horizontal(3, 1));
+  EXPECT_GT(loose.horizontal(3, 0), t.steady[0].horizontal(3, 0));
+  // The first 80 updates (4 s at 20 Hz) are the tight model's, then the weight drops.
+  ASSERT_GT(w.transient[0].size(), 81u);
+  EXPECT_NEAR(w.transient[0][40].horizontal(3, 1), t.transient[0][40].horizontal(3, 1), 1e-12);
+  EXPECT_LT(w.transient[0][81].horizontal(3, 1), 0.5 * t.transient[0][81].horizontal(3, 1));
+  WeightModel bad = m;
+  bad.trust_tilt_s = -1;
+  const auto r = ComputeWeightSchedule(bad);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("trust_tilt_s"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace mav::control

@@ -16,7 +16,12 @@
 //    coupling with the horizontal position is kept); then every buffered IMU sample after t_s is
 //    re-applied, which gives the estimate a filter fed on time would have (T_body_sensor =
 //    (q_bs, t_bs) is the pose sensor's mounting);
-//  * several pose sources (EstimatorOptions::sources), each with its rate, noise and mounting.
+//  * several pose sources (EstimatorOptions::sources), each with its rate, noise and mounting;
+//  * optionally, per source, a gravity alignment of a source whose world tilts as it drifts (a
+//    VO): the tilt is weighted by its own noise (tilt_sigma_rad: loose, so that the estimate's
+//    tilt comes from the IMU's specific force against the positions), and each pose is first
+//    mapped through a correction of the source's frame that turns its tilt toward the
+//    estimate's, about the body's position, with time constant align_tilt_s (source_frame()).
 //
 // Fed synchronously, as OpenVINS' VioManager: FeedImu / FeedPose in arrival order; no threads,
 // no files, no allocation after construction (fixed ring buffer). Not thread-safe.
@@ -40,6 +45,15 @@ struct PoseSourceOptions {
   double rate_hz = 10;                   // nominal rate, for the weights
   double position_sigma_m = 0.01;        // per axis
   double orientation_sigma_rad = 0.017;  // per axis
+  // The tilt's (roll and pitch) noise in the weights; 0 = orientation_sigma_rad
+  // (PoseSourceNoise::tilt_sigma_rad).
+  double tilt_sigma_rad = 0;
+  // Gravity alignment of a source whose frame drifts in tilt (a VO, whose keyframe chain slowly
+  // tips its world): > 0 keeps a correction of the source's frame (source_frame()) that turns
+  // each pose's tilt toward the estimate's at its stamp, about the pose's position, with this
+  // time constant; the corrected pose is the one merged. The estimate's tilt must then come from
+  // gravity (a large tilt_sigma_rad), or the two follow each other. 0 = off.
+  double align_tilt_s = 0;
   // The sensor's mounting: the measured poses are T_world_sensor = T_world_body T_body_sensor.
   geometry::SE3 T_body_sensor;
 };
@@ -130,6 +144,10 @@ class Estimator {
   const EstimatorCounters& counters() const { return counters_; }
   const WeightSchedule& weights() const { return weights_; }
   const EstimatorOptions& options() const { return options_; }
+  // The correction of source s's frame (T_world_sourceworld: a pose of the source maps to
+  // source_frame(s) * pose); the identity unless PoseSourceOptions::align_tilt_s is set. To
+  // restart such a source at a world pose T, start it at source_frame(s).Inverse() * T.
+  const geometry::SE3& source_frame(int source) const { return frames_[source]; }
   // Forgets everything (the next pose initialises again).
   void Reset();
 
@@ -146,6 +164,10 @@ class Estimator {
   };
   CorrectionWeights NextWeights(int source);
   Status Gate(const PoseMeasurement& pose, const EstimatorState& x);
+  // The pose through its source's frame, aligned in tilt to x (align_tilt_s); *frame gets the
+  // source's updated frame.
+  PoseMeasurement Aligned(const PoseMeasurement& pose, const EstimatorState& x,
+                          geometry::SE3* frame) const;
   void Correct(const PoseMeasurement& pose, const CorrectionWeights& w, EstimatorState* x);
   Entry& At(int k) { return ring_[(head_ + k) % ring_.size()]; }
 
@@ -154,6 +176,7 @@ class Estimator {
   std::vector<Entry> ring_;  // oldest at head_
   int head_ = 0, size_ = 0;
   std::vector<uint64_t> updates_per_source_;
+  std::vector<geometry::SE3> frames_;  // per source (source_frame())
   // The poses merged within the buffer, in stamp order (re-applied when an older one arrives).
   std::vector<Applied> applied_;
   int applied_size_ = 0;

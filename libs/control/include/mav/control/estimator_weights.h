@@ -50,6 +50,11 @@ struct PoseSourceNoise {
   double rate_hz = 10;
   double position_sigma_m = 0.01;
   double orientation_sigma_rad = 0.017;
+  // The tilt part (roll, pitch) of the orientation's noise; 0 = orientation_sigma_rad. A source
+  // whose tilt drifts (a VO) gets a large one, so the tilt comes from gravity: the IMU's specific
+  // force against the positions.
+  double tilt_sigma_rad = 0;
+  double TiltSigma() const { return tilt_sigma_rad > 0 ? tilt_sigma_rad : orientation_sigma_rad; }
 };
 
 struct WeightModel {
@@ -65,6 +70,12 @@ struct WeightModel {
   double initial_gyro_offset_sigma = 0.05;  // rad/s
   // false: the paper's decoupled weights (translation and orientation filtered apart).
   bool couple_tilt = true;
+  // For this long after initialisation a source's tilt is weighted with its
+  // orientation_sigma_rad, whatever its tilt_sigma_rad: a source that starts at a known pose (a
+  // VO seeded with the true one) is right about the tilt then, and the accelerometer's offsets
+  // are learnt against it. Without a turn in yaw the offsets and the tilt cannot be told apart
+  // later on: gravity's tilt is only as good as the offsets learnt here.
+  double trust_tilt_s = 0;
   std::vector<PoseSourceNoise> sources = std::vector<PoseSourceNoise>(1);
 
   bool IsValid(std::string* why) const;

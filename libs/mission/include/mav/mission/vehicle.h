@@ -13,6 +13,7 @@
 // The camera rig: the preset's EuRoC rig (body = the VI sensor's IMU frame, x up, z forward)
 // mounted on the vehicle (body x forward, z up) looking forward, T_vehicle_rig.
 
+#include <cmath>
 #include <cstdint>
 #include <deque>
 #include <memory>
@@ -59,6 +60,12 @@ struct VehicleOptions {
   // The estimator's model of the VO pose noise, and the modelled VO latency (its buffer).
   double vo_position_sigma_m = 0.01;
   double vo_orientation_sigma_rad = 0.005;
+  // The VO's tilt drifts with its keyframe chain (room-hard: ~4 degrees over a survey, 0.15 m
+  // of height error): the estimator takes the tilt from gravity (a loose tilt sigma,
+  // PoseSourceOptions::tilt_sigma_rad) and turns the VO's frame toward it with a time constant
+  // (PoseSourceOptions::align_tilt_s, 0 = off).
+  double vo_tilt_sigma_rad = 3 * M_PI / 180;
+  double vo_align_tilt_s = 2.0;
   double vo_latency_s = 0.05;
   control::ControllerType controller = control::ControllerType::kPaper;
   // The estimator's gate (EstimatorOptions::pose_gate_*) on every source.

@@ -129,7 +129,17 @@ struct ServiceDriver::Impl {
   RuntimeWindow plan_ms{10000}, advance_ms{100000};
   std::function<void(const std::string&)> progress;
 
+  // The localization's counters restart at each Configure (a seed): what it counted before,
+  // and the frames the simulator had published by then.
+  uint64_t vo_frames_before = 0, vo_lost_before = 0, frames_published_at_seed = 0;
+  uint64_t frames_published = 0;  // by the end of the last tick
+
   bool vo() const { return options.vehicle.pose_source == mission::PoseSource::kVo; }
+  // The localization's status once it has answered every frame published by the end of the
+  // tick (the lock-step waits only for the frames due at the IMU's time, so the tick's own
+  // frame may still be in the VO): its tracking state is then the tick's last frame's, as in
+  // process. Gives up after lockstep_wait_s (a stalled service is not waited for).
+  Status SettledLocalizationStatus(v1::LocalizationStatus* loc);
 
   // One unary call with the quick deadline (or `timeout_s`); the error names the service, its
   // address and the RPC.
@@ -370,7 +380,35 @@ Status ServiceDriver::Impl::ConfigureControl() {
                [&](grpc::ClientContext* c) { return control->Configure(c, request, &status); });
 }
 
+Status ServiceDriver::Impl::SettledLocalizationStatus(v1::LocalizationStatus* loc) {
+  const auto give_up =
+      Clock::now() + std::chrono::microseconds(static_cast<int64_t>(1e6 * options.lockstep_wait_s));
+  while (true) {
+    v1::LocalizationGetStatusRequest request;
+    MAV_RETURN_IF_ERROR(
+        Unary("mav-localization", addresses.localization, "GetStatus",
+              [&](grpc::ClientContext* c) { return localization->GetStatus(c, request, loc); }));
+    const uint64_t answered =
+        loc->frames_processed() + loc->frames_dropped() + loc->frames_rejected();
+    const bool settled = loc->state() == v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED ||
+                         frames_published_at_seed + answered >= frames_published;
+    if (settled || Clock::now() >= give_up) return Status::Ok();
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+}
+
 Status ServiceDriver::Impl::ConfigureLocalization(const geometry::SE3& T_world_body) {
+  // Keep what the localization counted so far (a reachable, configured one).
+  v1::LocalizationStatus before;
+  v1::LocalizationGetStatusRequest get_before;
+  if (Unary("mav-localization", addresses.localization, "GetStatus",
+            [&](grpc::ClientContext* c) { return localization->GetStatus(c, get_before, &before); })
+          .ok() &&
+      before.state() != v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED) {
+    vo_frames_before += before.frames_processed();
+    vo_lost_before += before.frames_lost();
+  }
+  frames_published_at_seed = frames_published;
   v1::LocalizationConfigureRequest request;
   request.set_method(MethodToProto(options.vo_method));
   request.mutable_calibration()->set_simulator_address(addresses.simulator);
@@ -554,11 +592,9 @@ Result<mission::VehicleView> ServiceDriver::Advance(double dt_s) {
                                FromProto(truth.velocity()), FromProto(truth.angular_velocity())};
   if (s.vo()) {
     // A restarted service is unconfigured: the mission seeds it; an unreachable one is down.
+    s.frames_published = flight.frames_published();
     v1::LocalizationStatus loc;
-    v1::LocalizationGetStatusRequest get_loc;
-    const Status reached = s.Unary(
-        "mav-localization", s.addresses.localization, "GetStatus",
-        [&](grpc::ClientContext* c) { return s.localization->GetStatus(c, get_loc, &loc); });
+    const Status reached = s.SettledLocalizationStatus(&loc);
     if (!reached.ok()) {
       v.localization_state = "down";
     } else if (loc.state() == v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED) {
@@ -566,6 +602,12 @@ Result<mission::VehicleView> ServiceDriver::Advance(double dt_s) {
       v.localization_needs_seed = true;
     } else {
       v.localization_state = TrackingName(loc.tracking_state());
+      // The last frame was lost: the localization starts its next track at the estimate (as
+      // the in-process driver does at the end of its tick), not at its own last pose.
+      if (loc.tracking_state() == v1::TRACKING_STATE_LOST && s.options.reseed_after_loss &&
+          e.initialized()) {
+        MAV_RETURN_IF_ERROR(SeedLocalization(geometry::SE3(v.q_est, v.p_est)));
+      }
     }
   } else {
     v.localization_state = mission::PoseSourceName(s.options.vehicle.pose_source);
@@ -784,8 +826,8 @@ Result<ServiceFigures> ServiceDriver::Figures() {
     if (s.Unary("mav-localization", s.addresses.localization, "GetStatus",
                 [&](grpc::ClientContext* c) { return s.localization->GetStatus(c, get_loc, &loc); })
             .ok()) {
-      f.vo_frames = loc.frames_processed();
-      f.vo_lost = loc.frames_lost();
+      f.vo_frames = s.vo_frames_before + loc.frames_processed();
+      f.vo_lost = s.vo_lost_before + loc.frames_lost();
       f.vo_ms = StatsFromProto(loc.processing_ms());
     }
   }

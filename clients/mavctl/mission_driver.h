@@ -65,6 +65,9 @@ struct ServiceMissionOptions {
   double lockstep_timeout_s = 30;  // the simulator's wait for a command (then the mission aborts)
   double lockstep_wait_s = 2;      // mav-control's wait for a frame's pose
   double record_rate_hz = 20;
+  // After a frame the localization lost, it restarts at the estimate at the end of the tick
+  // (mission::LockstepOptions::reseed_after_loss; false: from its own last pose).
+  bool reseed_after_loss = true;
   // The online map (mav-mapping), as the in-process kOnline map: rebuilt every map_rebuild_s
   // while keyframes come, points up to map_max_depth_m deep seen by map_min_visibility
   // keyframes.

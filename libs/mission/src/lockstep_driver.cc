@@ -110,6 +110,7 @@ struct LockstepDriver::Impl {
   bool vo_down = false;
   bool vo_restarts = false;  // the current outage ends with a restarted localization
   bool vo_needs_seed = false;
+  bool vo_reseed_pending = false;  // a frame was lost: seed the VO at the estimate (Advance)
   std::string vo_state = "starting";
   std::unique_ptr<FlightRecorder> recorder;
   Eigen::Vector3d last_p = Eigen::Vector3d::Zero();
@@ -295,10 +296,9 @@ void LockstepDriver::Impl::Capture(int64_t frame) {
     vo_state = "lost (" + (pose.ok() ? pose->lost_reason : pose.status().message()) + ")";
     // The VO starts its next track where the estimator (IMU-propagated over the lost frames)
     // puts the vehicle, not at its own last pose: the motion while it was lost is not lost.
-    if (options.reseed_after_loss && ap->estimator().initialized()) {
-      const control::EstimatorState& e = ap->estimator().state();
-      vo->Reset(VoPoseAt(geometry::SE3(e.q_world_body, e.p_world)));
-    }
+    // Seeded at the end of the tick (Advance), as the services driver can: with one frame per
+    // tick that is just before the next frame, so the seed is the estimate at its capture.
+    vo_reseed_pending = options.reseed_after_loss;
     return;
   }
   ++stats.vo_tracked;
@@ -363,6 +363,11 @@ Result<VehicleView> LockstepDriver::Advance(double dt_s) {
     if (s.sim->done()) return Status::DeadlineExceeded("the simulation reached its 7200 s limit");
     s.StepOnce();
   }
+  if (s.vo_reseed_pending && s.ap->estimator().initialized()) {
+    const control::EstimatorState& e = s.ap->estimator().state();
+    s.vo->Reset(s.VoPoseAt(geometry::SE3(e.q_world_body, e.p_world)));
+  }
+  s.vo_reseed_pending = false;
   VehicleView v;
   v.t_ns = s.out->t_ns;
   v.armed = s.ap->armed();

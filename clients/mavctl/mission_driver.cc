@@ -140,6 +140,18 @@ struct ServiceDriver::Impl {
   // frame may still be in the VO): its tracking state is then the tick's last frame's, as in
   // process. Gives up after lockstep_wait_s (a stalled service is not waited for).
   Status SettledLocalizationStatus(v1::LocalizationStatus* loc);
+  // Control.GetState and Localization.GetStatus with the quick deadline.
+  Status GetControlState(v1::ControlState* state) {
+    v1::ControlGetStateRequest request;
+    return Unary("mav-control", addresses.control, "GetState",
+                 [&](grpc::ClientContext* c) { return control->GetState(c, request, state); });
+  }
+  Status GetLocalizationStatus(v1::LocalizationStatus* status) {
+    v1::LocalizationGetStatusRequest request;
+    return Unary(
+        "mav-localization", addresses.localization, "GetStatus",
+        [&](grpc::ClientContext* c) { return localization->GetStatus(c, request, status); });
+  }
 
   // One unary call with the quick deadline (or `timeout_s`); the error names the service, its
   // address and the RPC.
@@ -384,10 +396,7 @@ Status ServiceDriver::Impl::SettledLocalizationStatus(v1::LocalizationStatus* lo
   const auto give_up =
       Clock::now() + std::chrono::microseconds(static_cast<int64_t>(1e6 * options.lockstep_wait_s));
   while (true) {
-    v1::LocalizationGetStatusRequest request;
-    MAV_RETURN_IF_ERROR(
-        Unary("mav-localization", addresses.localization, "GetStatus",
-              [&](grpc::ClientContext* c) { return localization->GetStatus(c, request, loc); }));
+    MAV_RETURN_IF_ERROR(GetLocalizationStatus(loc));
     const uint64_t answered =
         loc->frames_processed() + loc->frames_dropped() + loc->frames_rejected();
     const bool settled = loc->state() == v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED ||
@@ -400,10 +409,7 @@ Status ServiceDriver::Impl::SettledLocalizationStatus(v1::LocalizationStatus* lo
 Status ServiceDriver::Impl::ConfigureLocalization(const geometry::SE3& T_world_body) {
   // Keep what the localization counted so far (a reachable, configured one).
   v1::LocalizationStatus before;
-  v1::LocalizationGetStatusRequest get_before;
-  if (Unary("mav-localization", addresses.localization, "GetStatus",
-            [&](grpc::ClientContext* c) { return localization->GetStatus(c, get_before, &before); })
-          .ok() &&
+  if (GetLocalizationStatus(&before).ok() &&
       before.state() != v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED) {
     vo_frames_before += before.frames_processed();
     vo_lost_before += before.frames_lost();
@@ -563,10 +569,7 @@ Result<mission::VehicleView> ServiceDriver::Advance(double dt_s) {
     }
   }
   v1::ControlState state;
-  v1::ControlGetStateRequest get_state;
-  MAV_RETURN_IF_ERROR(
-      s.Unary("mav-control", s.addresses.control, "GetState",
-              [&](grpc::ClientContext* c) { return s.control->GetState(c, get_state, &state); }));
+  MAV_RETURN_IF_ERROR(s.GetControlState(&state));
   mission::VehicleView v;
   v.t_ns = flight.t_ns();
   v.armed = state.armed();
@@ -724,10 +727,7 @@ Status ServiceDriver::SeedLocalization(const geometry::SE3& T_world_body) {
   // The estimator may have corrected the VO's frame (ControlPoseSource.align_tilt_s): the VO
   // restarts in its own frame, where the estimator's correction still applies.
   v1::ControlState state;
-  v1::ControlGetStateRequest get_state;
-  MAV_RETURN_IF_ERROR(
-      s.Unary("mav-control", s.addresses.control, "GetState",
-              [&](grpc::ClientContext* c) { return s.control->GetState(c, get_state, &state); }));
+  MAV_RETURN_IF_ERROR(s.GetControlState(&state));
   geometry::SE3 frame;
   if (state.estimate().source_frames_size() > 0) {
     MAV_ASSIGN_OR_RETURN(frame, service_common::PoseFromProto(state.estimate().source_frames(0),
@@ -814,18 +814,12 @@ Result<ServiceFigures> ServiceDriver::Figures() {
   f.poses_merged = control.poses();
   f.lockstep_frames_missed = control.lockstep_frames_missed();
   v1::ControlState state;
-  v1::ControlGetStateRequest get_state;
-  MAV_RETURN_IF_ERROR(
-      s.Unary("mav-control", s.addresses.control, "GetState",
-              [&](grpc::ClientContext* c) { return s.control->GetState(c, get_state, &state); }));
+  MAV_RETURN_IF_ERROR(s.GetControlState(&state));
   f.poses_gated = state.estimate().poses_gated();
   if (s.vo()) {
     v1::LocalizationStatus loc;
-    v1::LocalizationGetStatusRequest get_loc;
     // A localization that is down at the end leaves its figures at 0.
-    if (s.Unary("mav-localization", s.addresses.localization, "GetStatus",
-                [&](grpc::ClientContext* c) { return s.localization->GetStatus(c, get_loc, &loc); })
-            .ok()) {
+    if (s.GetLocalizationStatus(&loc).ok()) {
       f.vo_frames = s.vo_frames_before + loc.frames_processed();
       f.vo_lost = s.vo_lost_before + loc.frames_lost();
       f.vo_ms = StatsFromProto(loc.processing_ms());

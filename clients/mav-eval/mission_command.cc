@@ -108,12 +108,14 @@ int RunMission(const std::vector<std::string>& args) {
     return 0;
   }
   if (f.mission_path.empty()) return Fail("--mission: required\n" + flags.Help(), 2);
+  flags_in.mission.camera_pitch_set = flags.WasSet("camera-pitch");
   Result<mission::LockstepOptions> options = DriverOptions(flags_in);
   if (!options.ok()) return Fail(options.status().message(), 2);
 
   Result<dataset::MissionSpec> spec = dataset::ReadMissionFile(f.mission_path);
   if (!spec.ok()) return Fail(spec.status().message() + " (no take-off)");
   if (!flags_in.world.empty()) spec->world = flags_in.world;
+  plot::ApplyMissionFile(f, *spec, &options->vehicle);
   const mission::MissionOptions mission_options = plot::MissionLogicOptions(f, *spec);
 
   const auto wall_start = std::chrono::steady_clock::now();

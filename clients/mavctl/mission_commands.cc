@@ -94,6 +94,7 @@ int Run(const std::vector<std::string>& args) {
   ParseOrExit(&flags, nullptr, args);
   const plot::MissionFlags& f = flags_in.mission;
   if (f.mission_path.empty()) return Usage("run: --mission: required");
+  flags_in.mission.camera_pitch_set = flags.WasSet("camera-pitch");
   Result<ServiceMissionOptions> options = OptionsFrom(flags_in);
   if (!options.ok()) return Usage("run: " + options.status().message());
   ServiceAddresses addresses;
@@ -113,6 +114,7 @@ int Run(const std::vector<std::string>& args) {
   if (!text.ok()) return Usage(text.status().message() + " (no take-off)");
   Result<dataset::MissionSpec> spec = dataset::ParseMissionYaml(*text, f.mission_path);
   if (!spec.ok()) return Usage(spec.status().message() + " (no take-off)");
+  plot::ApplyMissionFile(f, *spec, &options->vehicle);
   const mission::MissionOptions mission_options = plot::MissionLogicOptions(f, *spec);
 
   const auto wall_start = std::chrono::steady_clock::now();

@@ -177,7 +177,9 @@ struct ServiceDriver::Impl {
   // The online map from the keyframes so far (BuildMap, GetOccupancy, the ground prior, upload).
   Status RebuildOnlineMap();
   Status ConfigureControl();
-  Status ConfigureLocalization(const geometry::SE3& T_world_body);
+  // Configures mav-localization to start at T_world_body; with reset_if_configured a configured
+  // one is only Reset there (the in-process driver's re-seed, which keeps the VO's gyro bias).
+  Status ConfigureLocalization(const geometry::SE3& T_world_body, bool reset_if_configured = false);
   Status WaitForDataPlane();
   Result<v1::FlightStatus> RunUntil(int64_t until_ns);
 };
@@ -406,17 +408,31 @@ Status ServiceDriver::Impl::SettledLocalizationStatus(v1::LocalizationStatus* lo
   }
 }
 
-Status ServiceDriver::Impl::ConfigureLocalization(const geometry::SE3& T_world_body) {
+Status ServiceDriver::Impl::ConfigureLocalization(const geometry::SE3& T_world_body,
+                                                  bool reset_if_configured) {
   // Keep what the localization counted so far (a reachable, configured one).
   v1::LocalizationStatus before;
-  if (GetLocalizationStatus(&before).ok() &&
-      before.state() != v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED) {
+  const bool configured = GetLocalizationStatus(&before).ok() &&
+                          before.state() != v1::LOCALIZATION_SERVICE_STATE_UNCONFIGURED;
+  if (configured) {
     vo_frames_before += before.frames_processed();
     vo_lost_before += before.frames_lost();
   }
   frames_published_at_seed = frames_published;
+  if (reset_if_configured && configured) {
+    // The running VO restarts at the pose and keeps its learnt gyro bias, as the in-process
+    // driver's RigOdometry::Reset does; a restarted (unconfigured) service is configured anew.
+    v1::LocalizationResetRequest reset;
+    service_common::ToProto(T_world_body * T_vehicle_rig, reset.mutable_initial_pose());
+    v1::LocalizationStatus status;
+    return Unary("mav-localization", addresses.localization, "Reset",
+                 [&](grpc::ClientContext* c) { return localization->Reset(c, reset, &status); });
+  }
   v1::LocalizationConfigureRequest request;
   request.set_method(MethodToProto(options.vo_method));
+  if (options.vo_method != localization::Method::kDense) {
+    request.mutable_sparse()->set_gyro_rotation_sigma_rad(options.vehicle.vo_gyro_sigma_rad);
+  }
   request.mutable_calibration()->set_simulator_address(addresses.simulator);
   service_common::ToProto(T_world_body * T_vehicle_rig, request.mutable_initial_pose());
   request.set_output_frame("body");
@@ -733,7 +749,7 @@ Status ServiceDriver::SeedLocalization(const geometry::SE3& T_world_body) {
     MAV_ASSIGN_OR_RETURN(frame, service_common::PoseFromProto(state.estimate().source_frames(0),
                                                               "estimate.source_frames[0]"));
   }
-  return s.ConfigureLocalization(frame.Inverse() * T_world_body);
+  return s.ConfigureLocalization(frame.Inverse() * T_world_body, /*reset_if_configured=*/true);
 }
 
 const std::vector<mission::FlightSample>& ServiceDriver::record() const {

@@ -22,12 +22,18 @@ void AddMissionFlags(MissionDriverKind kind, FlagParser* flags, MissionFlags* f)
                    "the estimator's model of the VO's tilt noise, degrees (loose: the tilt comes "
                    "from gravity)",
                    0.01, 90);
+  flags->AddDouble("vo-gyro-sigma", &f->vo_gyro_sigma_rad,
+                   "the sparse VO's gyro prior: noise of the gyro's rotation over one frame, rad "
+                   "(0 = vision only)",
+                   0, 0.1);
   flags->AddDouble("vo-align-tilt", &f->vo_align_tilt_s,
                    "time constant of the VO frame's gravity alignment in the estimator, s "
                    "(0 = off)",
                    0, 600);
   flags->AddDouble("camera-pitch", &f->camera_pitch_deg,
-                   "the stereo camera's downward pitch on the vehicle, degrees", 0, 60);
+                   "the stereo camera's downward pitch on the vehicle, degrees (default: the "
+                   "mission file's camera_pitch_deg, else 0)",
+                   0, 60);
   flags->AddDouble("max-speed", &f->max_speed, "planned speed limit, m/s (0 = the world's default)",
                    0, 20);
   flags->AddDouble("timeout", &f->timeout_s,
@@ -50,6 +56,7 @@ Result<MissionFlagOptions> MissionOptionsFromFlags(const MissionFlags& f) {
   o.vehicle.camera_pitch_rad = f.camera_pitch_deg * M_PI / 180;
   o.vehicle.vo_tilt_sigma_rad = f.vo_tilt_sigma_deg * M_PI / 180;
   o.vehicle.vo_align_tilt_s = f.vo_align_tilt_s;
+  o.vehicle.vo_gyro_sigma_rad = f.vo_gyro_sigma_rad;
   const std::optional<mission::PoseSource> source = mission::ParsePoseSource(f.pose_source);
   if (!source) {
     return Status::InvalidArgument("--pose-source: " + QuoteForError(f.pose_source) +
@@ -76,6 +83,13 @@ Result<MissionFlagOptions> MissionOptionsFromFlags(const MissionFlags& f) {
   o.map = *map;
   if (f.max_speed > 0) o.planning.limits = mission::SpeedLimitsForMaxSpeed(f.max_speed);
   return o;
+}
+
+void ApplyMissionFile(const MissionFlags& f, const dataset::MissionSpec& spec,
+                      mission::VehicleOptions* vehicle) {
+  if (!f.camera_pitch_set && spec.camera_pitch_deg.has_value()) {
+    vehicle->camera_pitch_rad = *spec.camera_pitch_deg * M_PI / 180;
+  }
 }
 
 mission::MissionOptions MissionLogicOptions(const MissionFlags& f,

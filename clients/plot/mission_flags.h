@@ -27,7 +27,11 @@ struct MissionFlags {
   double vo_latency_s = 0.05, max_speed = 0, timeout_s = 900, camera_pitch_deg = 0;
   double vo_tilt_sigma_deg = mission::VehicleOptions().vo_tilt_sigma_rad * 180 / M_PI;
   double vo_align_tilt_s = mission::VehicleOptions().vo_align_tilt_s;
+  double vo_gyro_sigma_rad = mission::VehicleOptions().vo_gyro_sigma_rad;
   bool quiet = false, face_goals = false;
+  // --camera-pitch was given (FlagParser::WasSet, set by the command after parsing): it
+  // overrides the mission file's camera_pitch_deg.
+  bool camera_pitch_set = false;
 };
 
 // Binds the shared flags to *f (the services' VO latency must be > 0: it is a lock-step
@@ -44,6 +48,10 @@ struct MissionFlagOptions {
 
 // InvalidArgument naming the flag ("--pose-source: 'x' is not one of vo, contest, truth").
 Result<MissionFlagOptions> MissionOptionsFromFlags(const MissionFlags& f);
+
+// What the mission file says of the vehicle (camera_pitch_deg) unless a flag said otherwise.
+void ApplyMissionFile(const MissionFlags& f, const dataset::MissionSpec& spec,
+                      mission::VehicleOptions* vehicle);
 
 // The mission logic's options for the flags and the mission file (the plant's goals count
 // within 0.5 m; an online map needs the camera to face the way).

@@ -65,6 +65,9 @@ Status SparseFromProto(const v1::SparseVoOptions& in, Method method,
                                                      : &out->subpixel_inlier_threshold_px;
   MAV_RETURN_IF_ERROR(
       PositiveOption(in.inlier_threshold_px(), 20.0, "sparse.inlier_threshold_px", threshold));
+  MAV_RETURN_IF_ERROR(PositiveOption(in.gyro_rotation_sigma_rad(), 0.1,
+                                     "sparse.gyro_rotation_sigma_rad",
+                                     &out->gyro_rotation_sigma_rad));
   out->mode = method == Method::kSparsePixel ? localization::SparseVoMode::kPixel
                                              : localization::SparseVoMode::kSubpixel;
   std::string why;
@@ -264,6 +267,7 @@ void ToProto(const LocalizerConfig& config, v1::LocalizationConfigureRequest* ou
     o->set_inlier_threshold_px(c.method == Method::kSparsePixel ? s.pixel_inlier_threshold_px
                                                                 : s.subpixel_inlier_threshold_px);
     o->set_min_inliers(static_cast<uint32_t>(s.motion.min_inliers));
+    o->set_gyro_rotation_sigma_rad(s.gyro_rotation_sigma_rad);
   }
   ToProto(c.calibration, c.calibration_rectified,
           out->mutable_calibration()->mutable_calibration());

@@ -260,6 +260,11 @@ TEST_F(LocalizationContractTest, ConfigureRejectsOutOfRangeOptionsNamingTheField
   sparse = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_PIXEL);
   sparse.mutable_sparse()->set_nms_radius_px(11);
   ExpectInvalid(Configure(sparse), "sparse.nms_radius_px:");
+  for (const double sigma : {-1e-4, 0.2, std::nan("")}) {
+    sparse = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL);
+    sparse.mutable_sparse()->set_gyro_rotation_sigma_rad(sigma);
+    ExpectInvalid(Configure(sparse), "sparse.gyro_rotation_sigma_rad:");
+  }
 
   auto dense = ConfigureRequest(v1::LOCALIZATION_METHOD_DENSE);
   dense.mutable_dense()->set_num_disparities(20);
@@ -420,6 +425,7 @@ TEST_F(LocalizationContractTest, ConfigureReportsTheEffectiveConfiguration) {
   v1::LocalizationStatus status;
   auto request = ConfigureRequest(v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL);
   request.mutable_sparse()->set_ransac_iterations(300);
+  request.mutable_sparse()->set_gyro_rotation_sigma_rad(1e-4);
   ASSERT_TRUE(Configure(request, &status).ok());
   EXPECT_EQ(status.state(), v1::LOCALIZATION_SERVICE_STATE_READY);
   EXPECT_EQ(status.method(), v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL);
@@ -427,6 +433,7 @@ TEST_F(LocalizationContractTest, ConfigureReportsTheEffectiveConfiguration) {
   EXPECT_TRUE(input_.stereo_input());
   const v1::LocalizationConfigureRequest& config = status.config();
   EXPECT_EQ(config.sparse().ransac_iterations(), 300u);
+  EXPECT_DOUBLE_EQ(config.sparse().gyro_rotation_sigma_rad(), 1e-4);
   EXPECT_GT(config.sparse().nms_radius_px(), 0u) << "defaults are filled in";
   EXPECT_GT(config.sparse().inlier_threshold_px(), 0.0);
   EXPECT_EQ(config.queue_length(), 2u);

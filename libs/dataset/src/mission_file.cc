@@ -17,9 +17,15 @@ using Fields = internal::YamlFields;
 
 constexpr size_t kMaxGoals = 1000;
 constexpr double kMaxAltitudeM = 100.0;
+constexpr double kMaxCameraPitchDeg = 60.0;
 constexpr double kMaxHoverS = 3600.0;
 
 // The limits of mission_file.h, one place for the reader and IsValid.
+std::string CameraPitchError(double pitch_deg) {
+  if (pitch_deg >= 0.0 && pitch_deg <= kMaxCameraPitchDeg) return "";
+  return std::to_string(pitch_deg) + " degrees; must be in [0, 60]";
+}
+
 std::string AltitudeError(double altitude_m) {
   if (altitude_m > 0.0 && altitude_m <= kMaxAltitudeM) return "";
   return std::to_string(altitude_m) + " m; must be in (0, 100]";
@@ -60,7 +66,8 @@ Status ParseGoal(const Fields& f, const YAML::Node& n, const std::string& path, 
 
 // Fields::CheckKeys on the top-level mapping, with the line of the first key it refuses.
 Status CheckTopLevelKeys(const Fields& f, const YAML::Node& root) {
-  const std::set<std::string> known = {"world", "start", "altitude", "hover_s", "goals", "land"};
+  const std::set<std::string> known = {"world", "start", "altitude",        "hover_s",
+                                       "goals", "land",  "camera_pitch_deg"};
   Status status = f.CheckKeys(root, "", known);
   if (status.ok()) return status;
   for (const auto& kv : root) {
@@ -83,6 +90,15 @@ Status Parse(const YAML::Node& root, MissionSpec* mission) {
       AtLine(root["altitude"], root, f.Double(root, "", "altitude", &mission->altitude_m)));
   if (const std::string e = AltitudeError(mission->altitude_m); !e.empty()) {
     return AtLine(root["altitude"], root, Fields::Bad("altitude", e));
+  }
+  if (root["camera_pitch_deg"]) {
+    double pitch = 0;
+    MAV_RETURN_IF_ERROR(
+        AtLine(root["camera_pitch_deg"], root, f.Double(root, "", "camera_pitch_deg", &pitch)));
+    if (const std::string e = CameraPitchError(pitch); !e.empty()) {
+      return AtLine(root["camera_pitch_deg"], root, Fields::Bad("camera_pitch_deg", e));
+    }
+    mission->camera_pitch_deg = pitch;
   }
   double hover_s = MissionGoal().hover_s;
   MAV_RETURN_IF_ERROR(AtLine(root["hover_s"], root, f.Double(root, "", "hover_s", &hover_s)));
@@ -124,6 +140,11 @@ bool MissionSpec::IsValid(std::string* why) const {
   if (world.empty()) return fail("world: empty (a simulator preset)");
   if (!start.allFinite()) return fail("start: not finite");
   if (const std::string e = AltitudeError(altitude_m); !e.empty()) return fail("altitude: " + e);
+  if (camera_pitch_deg.has_value()) {
+    if (const std::string e = CameraPitchError(*camera_pitch_deg); !e.empty()) {
+      return fail("camera_pitch_deg: " + e);
+    }
+  }
   if (goals.empty()) return fail("goals: none (at least one)");
   if (goals.size() > kMaxGoals) return fail("goals: more than " + std::to_string(kMaxGoals));
   for (size_t i = 0; i < goals.size(); ++i) {

@@ -50,14 +50,15 @@ class SparseOdometry final : public StereoOdometry {
   SparseOdometry(Method method, SparseVo vo) : method_(method), vo_(std::move(vo)) {}
 
   Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
-                                const MotionHint* /*hint: unused*/) override {
-    MAV_ASSIGN_OR_RETURN(const VoFrameResult r, vo_.ProcessFrame(t_ns, left, right));
+                                const MotionHint* hint) override {
+    MAV_ASSIGN_OR_RETURN(const VoFrameResult r, vo_.ProcessFrame(t_ns, left, right, hint));
     OdometryFrame out;
     out.t_ns = r.t_ns;
     out.state = r.state;
     out.lost_reason = r.lost_reason;
     out.T_world_cam = r.T_world_cam;
     out.reference_reset = r.reference_reset;
+    out.vision_R_prev_cur = r.vision_R_prev_cur;
     out.matches = r.num_matches;
     out.support = r.num_inliers;
     out.residual = r.mean_reprojection_error_px;

@@ -55,6 +55,10 @@ bool RigOdometryOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "gyro_bias_gain: must be in [0, 1)";
     return false;
   }
+  if (!(gyro_bias_gate_deg > 0)) {
+    if (why != nullptr) *why = "gyro_bias_gate_deg: must be > 0";
+    return false;
+  }
   return odometry.IsValid(method, why);
 }
 
@@ -79,7 +83,12 @@ RigOdometry::RigOdometry(RigOdometryOptions options, camera::RigRectification re
 
 void RigOdometry::AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_body) {
   if (!omega_body.allFinite()) return;
-  if (!gyro_.empty() && t_ns <= gyro_.back().t_ns) return;
+  if (!gyro_.empty() && t_ns <= gyro_.back().t_ns) {
+    // A repeated or late sample is dropped; a clock that went back by more than the history's
+    // span is a new stream (a replay started again).
+    if (t_ns >= gyro_.back().t_ns - kNewGyroStreamNs) return;
+    gyro_.clear();
+  }
   gyro_.push_back({t_ns, omega_body});
   while (gyro_.size() > kGyroHistory) gyro_.pop_front();
 }
@@ -118,14 +127,22 @@ std::optional<Eigen::Quaterniond> RigOdometry::IntegrateGyro(int64_t t0_ns, int6
 }
 
 void RigOdometry::UpdateGyroBias(const Eigen::Quaterniond& R_body_gyro,
-                                 const geometry::SE3& T_prev_cur_cam, double dt_s) {
+                                 const Eigen::Quaterniond& R_prev_cur_cam, double dt_s) {
   if (!(dt_s > 0)) return;
   const Eigen::Quaterniond& q_br = rectification_.T_body_rect0.Rotation();
-  const Eigen::Quaterniond R_body_vo = q_br * T_prev_cur_cam.Rotation() * q_br.conjugate();
+  const Eigen::Quaterniond R_body_vo = q_br * R_prev_cur_cam * q_br.conjugate();
   // The gyro over-rotates by (b_true - b_est) dt: move the estimate by a fraction of the
-  // disagreement per frame (an exponential average over ~1 / gyro_bias_gain frames).
+  // disagreement per frame (an exponential average over ~1 / gyro_bias_gain frames). The first
+  // frames average with equal weights (gain 1/k for the k-th), so a constant offset is learnt
+  // in as many frames as its noise needs, not in 1 / gain.
   const Eigen::Vector3d e = geometry::LogSO3(R_body_gyro.conjugate() * R_body_vo);
-  gyro_bias_ -= options_.gyro_bias_gain * e / dt_s;
+  if (!(e.norm() <= options_.gyro_bias_gate_deg * M_PI / 180)) return;
+  ++gyro_bias_updates_;
+  const double gain =
+      options_.gyro_bias_gain > 0
+          ? std::max(options_.gyro_bias_gain, 1.0 / static_cast<double>(gyro_bias_updates_))
+          : 0.0;
+  gyro_bias_ -= gain * e / dt_s;
 }
 
 void RigOdometry::Reset(const std::optional<geometry::SE3>& T_world_body0) {
@@ -133,8 +150,6 @@ void RigOdometry::Reset(const std::optional<geometry::SE3>& T_world_body0) {
   t_previous_ns_.reset();
   T_world_cam_previous_.reset();
   previous_ok_ = false;
-  gyro_.clear();
-  gyro_bias_.setZero();
   T_world_body0_ = T_world_body0.value_or(options_.T_world_body0);
   next_index_ = 0;
   T_world_out_previous_.reset();
@@ -159,7 +174,9 @@ Result<RigPose> RigOdometry::Process(int64_t t_ns, const cv::Mat& left, const cv
     out.timing.rectify_ms = MsSince(rectify_start);
   }
   std::optional<Eigen::Quaterniond> R_body_gyro;
-  if (options_.use_gyro && options_.method == Method::kDense && t_previous_ns_.has_value()) {
+  const bool gyro_wanted =
+      options_.method == Method::kDense || options_.odometry.sparse.gyro_rotation_sigma_rad > 0;
+  if (options_.use_gyro && gyro_wanted && t_previous_ns_.has_value()) {
     R_body_gyro = IntegrateGyro(*t_previous_ns_, t_ns);
   }
   std::optional<MotionHint> hint;
@@ -206,7 +223,10 @@ Result<RigPose> RigOdometry::Process(int64_t t_ns, const cv::Mat& left, const cv
   const bool ok = frame.state == TrackingState::kOk;
   if (R_body_gyro.has_value() && T_world_cam_previous.has_value() && previous_ok_ && ok &&
       !frame.reference_reset) {
-    UpdateGyroBias(*R_body_gyro, T_world_cam_previous->Inverse() * frame.T_world_cam, dt_s);
+    UpdateGyroBias(*R_body_gyro,
+                   frame.vision_R_prev_cur.value_or(
+                       (T_world_cam_previous->Inverse() * frame.T_world_cam).Rotation()),
+                   dt_s);
   }
   previous_ok_ = ok;
 

@@ -1,6 +1,7 @@
 #include "mav/localization/sparse_vo.h"
 
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -97,6 +98,20 @@ bool SparseVoOptions::IsValid(std::string* why) const {
     }
     return false;
   }
+  if (!(gyro_rotation_sigma_rad >= 0 && gyro_rotation_sigma_rad <= 0.1)) {
+    if (why) {
+      *why = "gyro_rotation_sigma_rad: must be in [0, 0.1] (0 = vision only), got " +
+             std::to_string(gyro_rotation_sigma_rad);
+    }
+    return false;
+  }
+  if (!(reprojection_sigma_px > 0) || !(gyro_gate_deg >= 0)) {
+    if (why) {
+      *why = "reprojection_sigma_px/gyro_gate_deg: must be > 0 / >= 0, got " +
+             std::to_string(reprojection_sigma_px) + "/" + std::to_string(gyro_gate_deg);
+    }
+    return false;
+  }
   return true;
 }
 
@@ -121,6 +136,53 @@ struct SparseVo::Impl {
   std::vector<Eigen::Vector3d> points;
   std::vector<StereoObservation> observations;
   std::vector<int> match_of_point;
+
+  // The previous pair's points of the matches (previous-left frame) and their current
+  // observations, for the motion estimate.
+  void TriangulateMatches() {
+    points.clear();
+    observations.clear();
+    match_of_point.clear();
+    for (size_t i = 0; i < matches.size(); ++i) {
+      const QuadMatch& q = matches[i];
+      const double disparity = q.u_prev_left - q.u_prev_right;
+      if (!(disparity > 0.1)) continue;
+      const double z = rig.DepthFromDisparity(disparity);
+      points.emplace_back((q.u_prev_left - rig.cx) / rig.fx * z,
+                          (q.v_prev_left - rig.cy) / rig.fy * z, z);
+      observations.emplace_back(q.u_cur_left, q.v_cur_left, q.u_cur_right, q.v_cur_right);
+      match_of_point.push_back(static_cast<int>(i));
+    }
+  }
+
+  // Takes the estimated motion (T_world_cur from est) as the current pose, fills the frame's
+  // figures and decides whether the reference pair stays.
+  void AdoptMotion(const StereoMotionEstimate& est, const geometry::SE3& T_world_cur,
+                   bool gyro_aided, VoFrameResult* result) {
+    const geometry::SE3 T_prev_cur = T_world_cam.Inverse() * T_world_cur;
+    for (int i : est.inliers) inliers.push_back(match_of_point[i]);
+    result->num_inliers = static_cast<int>(est.inliers.size());
+    result->mean_reprojection_error_px = est.mean_error_px;
+    result->T_prev_cur = T_prev_cur;
+    if (gyro_aided) {
+      // The previous pair relative to the reference as tracked, the current one by vision alone.
+      result->vision_R_prev_cur =
+          (T_last_ref.Rotation() * est.vision_R_cur_prev.conjugate()).normalized();
+    }
+    T_world_cam = T_world_cur;
+    T_cur_prev_prior = T_prev_cur.Inverse();
+    prior_valid = true;
+    T_last_ref = est.T_cur_prev;
+    const double angle_deg =
+        Eigen::AngleAxisd(est.T_cur_prev.Rotation()).angle() * 180.0 / 3.14159265358979323846;
+    const bool keep = options.keep_reference_while_small &&
+                      est.T_cur_prev.Translation().norm() < options.keyframe_max_translation_m &&
+                      angle_deg < options.keyframe_max_rotation_deg &&
+                      static_cast<int>(est.inliers.size()) >= options.keyframe_min_inliers &&
+                      static_cast<double>(est.inliers.size()) >=
+                          options.keyframe_min_inlier_ratio * static_cast<double>(points.size());
+    if (!keep) AdoptCurrentAsReference();
+  }
 
   void AdoptCurrentAsReference() {
     std::swap(prev_left, cur_left);
@@ -164,7 +226,7 @@ const std::vector<QuadMatch>& SparseVo::last_matches() const { return impl_->mat
 const std::vector<int>& SparseVo::last_inliers() const { return impl_->inliers; }
 
 Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
-                                             const cv::Mat& right) {
+                                             const cv::Mat& right, const MotionHint* hint) {
   Impl& s = *impl_;
   MAV_RETURN_IF_ERROR(CheckImage("left", left, s.rig));
   MAV_RETURN_IF_ERROR(CheckImage("right", right, s.rig));
@@ -211,6 +273,14 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
   // Predicted motion from the reference pair to the current one: constant velocity on top of the
   // last frame's pose relative to the reference.
   const geometry::SE3 T_cur_ref_prior = s.T_cur_prev_prior * s.T_last_ref;
+  // The gyro's rotation prior: the previous pair relative to the reference (T_last_ref, known
+  // whenever there is a reference), turned by the gyro since.
+  std::optional<RotationPrior> gyro_prior;
+  if (hint != nullptr && opt.gyro_rotation_sigma_rad > 0) {
+    gyro_prior = RotationPrior{hint->R_prev_cur.conjugate() * s.T_last_ref.Rotation(),
+                               opt.reprojection_sigma_px / opt.gyro_rotation_sigma_rad,
+                               opt.gyro_gate_deg * M_PI / 180};
+  }
   MatcherOptions matcher = opt.matcher;
   if (opt.mode == SparseVoMode::kPixel && opt.pixel_max_starts_per_bucket > 0) {
     matcher.max_starts_per_bucket = opt.pixel_max_starts_per_bucket;
@@ -238,25 +308,14 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
       continue;
     }
     t0 = MonotonicNowNs();
-    s.points.clear();
-    s.observations.clear();
-    s.match_of_point.clear();
-    for (size_t i = 0; i < s.matches.size(); ++i) {
-      const QuadMatch& q = s.matches[i];
-      const double disparity = q.u_prev_left - q.u_prev_right;
-      if (!(disparity > 0.1)) continue;
-      const double z = s.rig.DepthFromDisparity(disparity);
-      s.points.emplace_back((q.u_prev_left - s.rig.cx) / s.rig.fx * z,
-                            (q.v_prev_left - s.rig.cy) / s.rig.fy * z, z);
-      s.observations.emplace_back(q.u_cur_left, q.v_cur_left, q.u_cur_right, q.v_cur_right);
-      s.match_of_point.push_back(static_cast<int>(i));
-    }
+    s.TriangulateMatches();
     StereoMotionOptions motion = opt.motion;
     motion.seed = opt.motion.seed + static_cast<uint64_t>(result.frame_index);
     motion.inlier_threshold_px = opt.mode == SparseVoMode::kPixel
                                      ? opt.pixel_inlier_threshold_px
                                      : opt.subpixel_inlier_threshold_px;
-    est = EstimateStereoMotion(s.rig, s.points, s.observations, motion);
+    est = EstimateStereoMotion(s.rig, s.points, s.observations, motion,
+                               gyro_prior.has_value() ? &*gyro_prior : nullptr);
     result.timing.estimation_ms += MsSince(t0);
     // A wrong prediction shows as few matches or a low inlier ratio: retry without it.
     if (est.ok && 2 * est.inliers.size() >= s.points.size()) break;
@@ -277,23 +336,7 @@ Result<VoFrameResult> SparseVo::ProcessFrame(int64_t t_ns, const cv::Mat& left,
         << opt.max_translation_per_frame_m << ")";
     return finish(TrackingState::kLost, msg.str());
   }
-  for (int i : est.inliers) s.inliers.push_back(s.match_of_point[i]);
-  result.num_inliers = static_cast<int>(est.inliers.size());
-  result.mean_reprojection_error_px = est.mean_error_px;
-  result.T_prev_cur = T_prev_cur;
-  s.T_world_cam = T_world_cur;
-  s.T_cur_prev_prior = T_prev_cur.Inverse();
-  s.prior_valid = true;
-  s.T_last_ref = est.T_cur_prev;
-  const double angle_deg =
-      Eigen::AngleAxisd(est.T_cur_prev.Rotation()).angle() * 180.0 / 3.14159265358979323846;
-  const bool keep = opt.keep_reference_while_small &&
-                    est.T_cur_prev.Translation().norm() < opt.keyframe_max_translation_m &&
-                    angle_deg < opt.keyframe_max_rotation_deg &&
-                    static_cast<int>(est.inliers.size()) >= opt.keyframe_min_inliers &&
-                    static_cast<double>(est.inliers.size()) >=
-                        opt.keyframe_min_inlier_ratio * static_cast<double>(s.points.size());
-  if (!keep) s.AdoptCurrentAsReference();
+  s.AdoptMotion(est, T_world_cur, gyro_prior.has_value(), &result);
   return finish(TrackingState::kOk, "");
 }
 

@@ -38,6 +38,17 @@ void CollectInliers(const camera::RectifiedStereo& rig, const std::vector<Eigen:
   if (mean_error) *mean_error = inliers->empty() ? 0.0 : sum / inliers->size();
 }
 
+// Adds the rotation prior's residual (on the rotation half of the left-multiplied tangent,
+// whose Jacobian is the identity to first order) to the normal equations.
+void AddRotationPrior(const RotationPrior* prior, const geometry::SE3& T, Matrix6d* H,
+                      Vector6d* g) {
+  if (prior == nullptr || !(prior->weight_px_per_rad > 0)) return;
+  const double w = prior->weight_px_per_rad;
+  const Eigen::Vector3d r = w * geometry::LogSO3(T.Rotation() * prior->R_cur_prev.conjugate());
+  H->bottomRightCorner<3, 3>().diagonal().array() += w * w;
+  g->tail<3>() += w * r;
+}
+
 }  // namespace
 
 bool StereoReprojectionResidual(const camera::RectifiedStereo& rig, const geometry::SE3& T_cur_prev,
@@ -91,7 +102,7 @@ bool RefineStereoMotion(const camera::RectifiedStereo& rig,
                         const std::vector<Eigen::Vector3d>& points_prev,
                         const std::vector<StereoObservation>& observations,
                         const std::vector<int>& indices, int max_iterations,
-                        geometry::SE3* T_cur_prev) {
+                        geometry::SE3* T_cur_prev, const RotationPrior* prior) {
   geometry::SE3 T = *T_cur_prev;
   Eigen::Vector4d r;
   Matrix46d J;
@@ -106,6 +117,7 @@ bool RefineStereoMotion(const camera::RectifiedStereo& rig,
       ++used;
     }
     if (used < 3) return false;
+    AddRotationPrior(prior, T, &H, &g);
     const Eigen::LDLT<Matrix6d> ldlt(H);
     if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12)) return false;
     const Vector6d delta = -ldlt.solve(g);
@@ -122,7 +134,7 @@ bool RefineStereoMotionAndStructure(const camera::RectifiedStereo& rig,
                                     const std::vector<Eigen::Vector3d>& points_prev,
                                     const std::vector<StereoObservation>& observations,
                                     const std::vector<int>& indices, int max_iterations,
-                                    geometry::SE3* T_cur_prev) {
+                                    geometry::SE3* T_cur_prev, const RotationPrior* prior) {
   const double fx = rig.fx, fy = rig.fy, cx = rig.cx, cy = rig.cy, b = rig.baseline;
   // Per point: the previous observation (u0, v0, d0) (projection of points_prev) and the
   // current estimate q = (u, v, d).
@@ -185,6 +197,7 @@ bool RefineStereoMotionAndStructure(const camera::RectifiedStereo& rig,
       ++n_used;
     }
     if (n_used < 3) return false;
+    AddRotationPrior(prior, T, &S, &s);
     const Eigen::LDLT<Matrix6d> ldlt(S);
     if (ldlt.info() != Eigen::Success || !(ldlt.vectorD().minCoeff() > 1e-12)) return false;
     const Vector6d delta = -ldlt.solve(s);
@@ -203,7 +216,8 @@ bool RefineStereoMotionAndStructure(const camera::RectifiedStereo& rig,
 StereoMotionEstimate EstimateStereoMotion(const camera::RectifiedStereo& rig,
                                           const std::vector<Eigen::Vector3d>& points_prev,
                                           const std::vector<StereoObservation>& observations,
-                                          const StereoMotionOptions& options) {
+                                          const StereoMotionOptions& options,
+                                          const RotationPrior* prior) {
   MAV_CHECK(points_prev.size() == observations.size())
       << points_prev.size() << " points vs " << observations.size() << " observations";
   StereoMotionEstimate est;
@@ -227,9 +241,15 @@ StereoMotionEstimate EstimateStereoMotion(const camera::RectifiedStereo& rig,
     do sample[2] = static_cast<int>(rng() % n);
     while (sample[2] == sample[0] || sample[2] == sample[1]);
 
-    geometry::SE3 T;  // StereoScan starts every hypothesis from the identity
-    if (!RefineStereoMotion(rig, points_prev, observations, sample, options.minimal_iterations,
-                            &T)) {
+    // StereoScan starts every hypothesis from the identity; with a prior, from its rotation.
+    geometry::SE3 T;
+    if (prior != nullptr) T = geometry::SE3(prior->R_cur_prev, Eigen::Vector3d::Zero());
+    if (!RefineStereoMotion(rig, points_prev, observations, sample, options.minimal_iterations, &T,
+                            prior)) {
+      continue;
+    }
+    if (prior != nullptr && prior->gate_rad > 0 &&
+        geometry::AngleBetween(T.Rotation(), prior->R_cur_prev) > prior->gate_rad) {
       continue;
     }
     CollectInliers(rig, points_prev, observations, T, options.inlier_threshold_px, &inliers,
@@ -260,7 +280,7 @@ StereoMotionEstimate EstimateStereoMotion(const camera::RectifiedStereo& rig,
   for (int round = 0; round < 2; ++round) {
     geometry::SE3 refined = T;
     if (!RefineStereoMotion(rig, points_prev, observations, best_inliers,
-                            options.refinement_iterations, &refined)) {
+                            options.refinement_iterations, &refined, prior)) {
       break;
     }
     CollectInliers(rig, points_prev, observations, refined, options.inlier_threshold_px, &inliers,
@@ -272,7 +292,7 @@ StereoMotionEstimate EstimateStereoMotion(const camera::RectifiedStereo& rig,
   if (options.refine_structure && static_cast<int>(best_inliers.size()) >= options.min_inliers) {
     geometry::SE3 joint = T;
     if (RefineStereoMotionAndStructure(rig, points_prev, observations, best_inliers,
-                                       options.structure_iterations, &joint)) {
+                                       options.structure_iterations, &joint, prior)) {
       T = joint;
     }
   }
@@ -284,6 +304,13 @@ StereoMotionEstimate EstimateStereoMotion(const camera::RectifiedStereo& rig,
   CollectInliers(rig, points_prev, observations, T, options.inlier_threshold_px, &est.inliers,
                  &est.mean_error_px);
   est.T_cur_prev = T;
+  est.vision_R_cur_prev = T.Rotation();
+  if (prior != nullptr && prior->weight_px_per_rad > 0) {
+    geometry::SE3 vision = T;
+    if (RefineStereoMotion(rig, points_prev, observations, est.inliers, 1, &vision)) {
+      est.vision_R_cur_prev = vision.Rotation();
+    }
+  }
   est.ok = static_cast<int>(est.inliers.size()) >= options.min_inliers;
   if (!est.ok) est.failure = "RANSAC failed: too few inliers after refinement";
   return est;

@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "mav/camera/stereo.h"
+#include "mav/common/check.h"
 #include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "mav/dataset/occupancy_io.h"
@@ -107,6 +108,7 @@ struct LockstepDriver::Impl {
 
   const sim::FlightStep* out = nullptr;
   std::deque<PendingPose> pending;
+  localization::RigOdometryOptions vo_options;  // what `vo` was created from
   bool vo_down = false;
   bool vo_restarts = false;  // the current outage ends with a restarted localization
   bool vo_needs_seed = false;
@@ -231,7 +233,9 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
     vo.method = options.vo_method;
     vo.calibration = s.camera->calibration();
     vo.T_world_body0 = geometry::SE3(x0.q_world_body, x0.p_world) * s.T_vehicle_rig;
+    vo.odometry.sparse.gyro_rotation_sigma_rad = vehicle.vo_gyro_sigma_rad;
     MAV_ASSIGN_OR_RETURN(s.vo, localization::RigOdometry::Create(vo));
+    s.vo_options = vo;
   }
   if (options.map_source == MapSource::kOnline) {
     mapping::MappingPipelineOptions mapping_options;
@@ -274,7 +278,11 @@ void LockstepDriver::Impl::Capture(int64_t frame) {
   if (vo_down) {
     vo_down = false;
     if (vo_restarts) {
-      vo->Reset();
+      // A restarted process knows nothing, its gyro bias included: a new odometry.
+      Result<std::unique_ptr<localization::RigOdometry>> restarted =
+          localization::RigOdometry::Create(vo_options);
+      MAV_CHECK(restarted.ok()) << restarted.status().ToString();  // created from these before
+      vo = std::move(*restarted);
       vo_needs_seed = true;
       vo_state = "unseeded";
     }

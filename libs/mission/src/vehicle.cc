@@ -52,6 +52,8 @@ bool VehicleOptions::IsValid(std::string* why) const {
     if (msg.str().empty() && !ok) msg << what;
   };
   check(vo_latency_s >= 0 && vo_latency_s <= 0.5, "vo_latency_s: must be in [0, 0.5]");
+  check(vo_gyro_sigma_rad >= 0 && vo_gyro_sigma_rad <= 0.1,
+        "vo_gyro_sigma_rad: must be in [0, 0.1] (0 = vision only)");
   check(vo_position_sigma_m > 0 && vo_orientation_sigma_rad > 0,
         "vo_position_sigma_m / vo_orientation_sigma_rad: must be positive");
   check(vo_tilt_sigma_rad > 0, "vo_tilt_sigma_rad: must be positive");

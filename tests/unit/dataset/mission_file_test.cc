@@ -61,11 +61,15 @@ goals:
   - [1, 2, 3]
   - {position: [4, 5, 6], hover_s: 0, yaw_rad: 1.5}
 land: false
+camera_pitch_deg: 25
 )",
                                                        "p.yaml");
   ASSERT_TRUE(mission.ok()) << mission.status().ToString();
   EXPECT_DOUBLE_EQ(mission->altitude_m, MissionSpec().altitude_m);
   EXPECT_FALSE(mission->land);
+  ASSERT_TRUE(mission->camera_pitch_deg.has_value());
+  EXPECT_DOUBLE_EQ(*mission->camera_pitch_deg, 25.0);
+  EXPECT_FALSE(ParseMissionYaml(kExample, "room.yaml")->camera_pitch_deg.has_value());
   ASSERT_EQ(mission->goals.size(), 2u);
   EXPECT_DOUBLE_EQ(mission->goals[0].hover_s, 5.0);  // the file's default
   EXPECT_DOUBLE_EQ(mission->goals[1].hover_s, 0.0);  // its own
@@ -95,6 +99,10 @@ TEST(MissionFileTest, RefusalsNameTheFileTheLineAndTheField) {
   EXPECT_THAT(Refusal("world: room-easy\ngoals: []\n"), HasSubstr("goals: expected a non-empty"));
   EXPECT_THAT(Refusal("goals:\n  - [1, 2, 3]\n"), HasSubstr("m.yaml:1: world: missing"));
   EXPECT_THAT(Refusal("world: room-easy\n"), HasSubstr("goals: missing"));
+  EXPECT_THAT(Refusal("world: plant\ngoals: [[1, 2, 3]]\ncamera_pitch_deg: 75\n"),
+              HasSubstr("m.yaml:3: camera_pitch_deg: 75.000000 degrees; must be in [0, 60]"));
+  EXPECT_THAT(Refusal("world: plant\ncamera_pitch_deg: down\ngoals: [[1, 2, 3]]\n"),
+              HasSubstr("m.yaml:2: camera_pitch_deg"));
   EXPECT_THAT(Refusal("world: room-easy\ngoals: [[1, 2, 3]]\nland: maybe\n"),
               HasSubstr("m.yaml:3: land: expected true or false"));
   EXPECT_THAT(Refusal("- just\n- a list\n"), HasSubstr("m.yaml: expected a YAML mapping"));
@@ -126,6 +134,10 @@ TEST(MissionFileTest, IsValidNamesTheField) {
   mission.altitude_m = 101;
   EXPECT_FALSE(mission.IsValid(&why));
   EXPECT_THAT(why, HasSubstr("altitude"));
+  mission.altitude_m = 1;
+  mission.camera_pitch_deg = -1;
+  EXPECT_FALSE(mission.IsValid(&why));
+  EXPECT_THAT(why, HasSubstr("camera_pitch_deg"));
 }
 
 TEST(MissionFileTest, ReadsAFileAndNamesAMissingOne) {

@@ -11,6 +11,8 @@
 //     - [2.0, 1.5, 1.2]       # a position, world frame, m
 //     - {position: [-2.5, 2.0, 1.5], hover_s: 5, yaw_rad: 1.57}   # or with its own hover/yaw
 //   land: true                # land below the last goal (default true)
+//   camera_pitch_deg: 25      # the vehicle's stereo camera pitched down, degrees, [0, 60]
+//                             # (default: the driver's, level unless told otherwise)
 //
 // Every error is an InvalidArgument that names the file, the line and the key path
 // ("room.yaml:7: goals[1]: expected a list of 3 numbers"), so a bad file is refused before any
@@ -40,10 +42,12 @@ struct MissionSpec {
   double altitude_m = 1.0;                          // take-off height above the start, > 0
   std::vector<MissionGoal> goals;                   // in order, at least one
   bool land = true;                                 // land below the last goal
+  std::optional<double> camera_pitch_deg;           // the camera's mounting, if the file says
   std::string source;                               // the file it came from (for messages)
 
   // The limits every mission keeps: a world named, finite coordinates, altitude in (0, 100] m,
-  // hover in [0, 3600] s, 1..1000 goals. `why` names the field ("goals[2].hover_s: ...").
+  // camera pitch in [0, 60] degrees, hover in [0, 3600] s, 1..1000 goals. `why` names the field
+  // ("goals[2].hover_s: ...").
   bool IsValid(std::string* why) const;
 };
 

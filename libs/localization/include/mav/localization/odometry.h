@@ -48,6 +48,9 @@ struct OdometryFrame {
   geometry::SE3 T_world_cam;
   // This pair started a new track (first pair, or first usable pair after a loss).
   bool reference_reset = false;
+  // Sparse with a gyro prior: the rotation since the previous pair by vision alone
+  // (VoFrameResult::vision_R_prev_cur); the gyro's bias is learnt against it.
+  std::optional<Eigen::Quaterniond> vision_R_prev_cur;
   // Dense: this pair became the keyframe. Sparse: always false (frame to frame).
   bool keyframe = false;
   // Sparse: circular matches. Dense: keyframe pixels.
@@ -78,7 +81,8 @@ class StereoOdometry {
   virtual ~StereoOdometry() = default;
 
   // Rectified CV_8UC1 pair of the rig's size; bad input is InvalidArgument naming "left"/"right".
-  // `hint` (may be null): the gyro rotation since the previous pair (dense only).
+  // `hint` (may be null): the gyro rotation since the previous pair (dense; sparse with
+  // SparseVoOptions::gyro_rotation_sigma_rad > 0).
   virtual Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
                                         const MotionHint* hint = nullptr) = 0;
   virtual void Reset() = 0;

@@ -30,9 +30,10 @@
 // the consistency check, the pose is the prediction; covariance grows by kDegraded*Sigma*), else
 // kOk.
 //
-// Gyro (dense): samples given with AddGyro are integrated between consecutive frame stamps
-// (trapezoidal, minus the estimated bias) and passed as the camera's rotation hint. The bias is
-// estimated from the OK frames: an exponential average of the gyro-VO rotation disagreement.
+// Gyro (dense, and sparse with odometry.sparse.gyro_rotation_sigma_rad > 0): samples given with
+// AddGyro are integrated between consecutive frame stamps (trapezoidal, minus the estimated
+// bias) and passed as the camera's rotation hint. The bias is estimated from the OK frames: an
+// average of the gyro-VO rotation disagreement (plain over the first frames, then exponential).
 //
 // Not thread-safe: one owner (the service's worker, or mav-eval's loop).
 
@@ -68,15 +69,20 @@ struct RigOdometryOptions {
   bool calibration_rectified = false;
   geometry::SE3 T_world_body0;
   OutputFrame output_frame = OutputFrame::kBody;
-  // Dense (the sparse methods ignore the gyro): integrate the gyro samples given with AddGyro
-  // between frames into a rotation hint
+  // Dense, and sparse with a gyro_rotation_sigma_rad: integrate the gyro samples given with
+  // AddGyro between frames into a rotation hint
   // (the rotation prior and the consistency check of dense_vo.h). Without samples covering a
   // frame interval the frame is processed vision-only.
   bool use_gyro = true;
   // Per-frame gain of the online gyro bias estimate (an exponential average of the gyro-VO
-  // rotation disagreement over the OK frames; 0 = the bias stays 0). It must be slow: whatever
-  // rotation bias the VO has, the estimate learns it too.
+  // rotation disagreement over the OK frames, a plain average over the first 1 / gain of them;
+  // 0 = the bias stays 0). It must be slow: whatever rotation bias the VO has, the estimate
+  // learns it too.
   double gyro_bias_gain = 0.002;
+  // A frame whose gyro and VO rotations disagree by more than this teaches the bias nothing
+  // (a frame the matches barely constrain, not an offset: the contest IMU's 0.02 rad/s is
+  // 0.06 degrees over a 20 Hz frame).
+  double gyro_bias_gate_deg = 1.0;
 
   // Names the field: "calibration: ...", "sparse: ...", "dense: ...".
   bool IsValid(std::string* why) const;
@@ -131,6 +137,7 @@ class RigOdometry {
   // bridges.
   static constexpr size_t kGyroHistory = 2000;
   static constexpr int64_t kMaxGyroGapNs = 20'000'000;
+  static constexpr int64_t kNewGyroStreamNs = 1'000'000'000;
 
   // Builds the rectifier and the odometry: InvalidArgument naming the field when invalid.
   static Result<std::unique_ptr<RigOdometry>> Create(const RigOdometryOptions& options);
@@ -156,8 +163,12 @@ class RigOdometry {
   // The gyro bias the odometry estimated (rad/s, body frame), removed before integrating.
   const Eigen::Vector3d& gyro_bias() const { return gyro_bias_; }
 
-  // Forgets the trajectory and the tracking state (and the gyro samples and bias); the next
-  // frame starts at `T_world_body0` if given, else the configured initial pose.
+  // Forgets the trajectory and the tracking state; the next frame starts at `T_world_body0` if
+  // given, else the configured initial pose. The gyro samples and the learnt gyro bias are
+  // kept: the IMU is the same (a re-seed in flight has its gyro prior from the second frame on,
+  // and an in-process re-seed integrates the very samples a service's Reset does). A gyro
+  // clock that goes back by more than kNewGyroStreamNs starts the samples anew (a replay
+  // started again); create a new odometry for another IMU.
   void Reset(const std::optional<geometry::SE3>& T_world_body0 = std::nullopt);
 
  private:
@@ -166,8 +177,8 @@ class RigOdometry {
 
   // R_body(t0)_body(t1) from the gyro samples, bias removed; nullopt if they do not cover it.
   std::optional<Eigen::Quaterniond> IntegrateGyro(int64_t t0_ns, int64_t t1_ns) const;
-  void UpdateGyroBias(const Eigen::Quaterniond& R_body_gyro, const geometry::SE3& T_prev_cur_cam,
-                      double dt_s);
+  void UpdateGyroBias(const Eigen::Quaterniond& R_body_gyro,
+                      const Eigen::Quaterniond& R_prev_cur_cam, double dt_s);
 
   RigOdometryOptions options_;
   camera::RigRectification rectification_;
@@ -183,6 +194,7 @@ class RigOdometry {
   bool previous_ok_ = false;                           // the last frame was OK (measured)
   std::deque<GyroSample> gyro_;
   Eigen::Vector3d gyro_bias_ = Eigen::Vector3d::Zero();
+  uint64_t gyro_bias_updates_ = 0;
 };
 
 }  // namespace mav::localization

@@ -73,6 +73,16 @@ struct SparseVoOptions {
   // A per-frame translation above this (metres) is rejected as LOST (20 m/s at 20 Hz).
   double max_translation_per_frame_m = 1.0;
 
+  // Gyro-aided motion (off by default: the paper's VO is vision-only). With a MotionHint and a
+  // sigma > 0, the rotation since the previous pair is a prior of the motion estimate
+  // (RotationPrior): the previous pair's pose relative to the reference, turned by the gyro.
+  // gyro_rotation_sigma_rad is the noise of the gyro's rotation over one frame interval
+  // (bias-corrected: ~5e-5 rad at 20 Hz for the contest IMU), reprojection_sigma_px that of a
+  // match; RANSAC drops hypotheses more than gyro_gate_deg from the prior.
+  double gyro_rotation_sigma_rad = 0;
+  double reprojection_sigma_px = 0.5;
+  double gyro_gate_deg = 1.0;
+
   // Reference ("keyframe") pair: when true, the reference pair stays while the motion since it is
   // below both thresholds and the frame kept at least keyframe_min_inliers inliers (and at least
   // keyframe_min_inlier_ratio of the matches); otherwise the current pair becomes the reference.
@@ -94,8 +104,10 @@ class SparseVo {
 
   // Processes one rectified pair taken at t_ns. Both images: CV_8UC1, rig.width x rig.height.
   // Bad input is an InvalidArgument naming "left"/"right" and leaves the tracker unchanged;
-  // otherwise the result is OK or LOST (see above).
-  Result<VoFrameResult> ProcessFrame(int64_t t_ns, const cv::Mat& left, const cv::Mat& right);
+  // otherwise the result is OK or LOST (see above). `hint` (may be null): the gyro's rotation
+  // since the previous pair, used with options().gyro_rotation_sigma_rad > 0.
+  Result<VoFrameResult> ProcessFrame(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
+                                     const MotionHint* hint = nullptr);
 
   // Forgets the reference pair and the pose (next frame starts again at identity).
   void Reset();

@@ -63,6 +63,20 @@ struct StereoMotionOptions {
   bool IsValid(std::string* why) const;
 };
 
+// A prior on the rotation of T_cur_prev (e.g. the gyro's): the residual
+//   r = weight_px_per_rad * Log(R_cur_prev_estimate * R_cur_prev^-1)
+// joins the reprojection residuals (pixels) in every refinement, so weight_px_per_rad is the
+// reprojection noise over the prior's noise (0.5 px / 1e-4 rad = 5000). It weighs little
+// against a few hundred well-spread inliers and decides the directions the points leave
+// ambiguous (a sideways shift against a turn, over near or few points). RANSAC starts its
+// hypotheses at the prior's rotation and drops those farther than gate_rad from it (0 = no
+// gate).
+struct RotationPrior {
+  Eigen::Quaterniond R_cur_prev = Eigen::Quaterniond::Identity();
+  double weight_px_per_rad = 0;
+  double gate_rad = 0;
+};
+
 struct StereoMotionEstimate {
   bool ok = false;
   std::string failure;  // why not ok
@@ -70,6 +84,10 @@ struct StereoMotionEstimate {
   std::vector<int> inliers;  // indices into the input, ascending
   double mean_error_px = 0;  // mean residual norm over inliers
   int hypotheses = 0;        // RANSAC hypotheses drawn
+  // The rotation the inliers alone give: T_cur_prev's without a prior; with one, T_cur_prev's
+  // after a Gauss-Newton step on the reprojection errors alone (what a prior's source, e.g. a
+  // gyro's bias, must be compared with: the estimate itself leans toward the prior).
+  Eigen::Quaterniond vision_R_cur_prev = Eigen::Quaterniond::Identity();
 };
 
 // Gauss-Newton on the correspondences `indices` starting from *T_cur_prev. Returns false (and
@@ -79,7 +97,7 @@ bool RefineStereoMotion(const camera::RectifiedStereo& rig,
                         const std::vector<Eigen::Vector3d>& points_prev,
                         const std::vector<StereoObservation>& observations,
                         const std::vector<int>& indices, int max_iterations,
-                        geometry::SE3* T_cur_prev);
+                        geometry::SE3* T_cur_prev, const RotationPrior* prior = nullptr);
 
 // Joint Gauss-Newton over the motion and the points `indices` (two-view bundle adjustment with
 // the points eliminated by the Schur complement). Each point is parametrised by its previous
@@ -92,12 +110,15 @@ bool RefineStereoMotionAndStructure(const camera::RectifiedStereo& rig,
                                     const std::vector<Eigen::Vector3d>& points_prev,
                                     const std::vector<StereoObservation>& observations,
                                     const std::vector<int>& indices, int max_iterations,
-                                    geometry::SE3* T_cur_prev);
+                                    geometry::SE3* T_cur_prev,
+                                    const RotationPrior* prior = nullptr);
 
 // RANSAC + Gauss-Newton. points_prev and observations are parallel. Deterministic for a seed.
+// `prior` (may be null): the rotation prior of every refinement and RANSAC's start and gate.
 StereoMotionEstimate EstimateStereoMotion(const camera::RectifiedStereo& rig,
                                           const std::vector<Eigen::Vector3d>& points_prev,
                                           const std::vector<StereoObservation>& observations,
-                                          const StereoMotionOptions& options);
+                                          const StereoMotionOptions& options,
+                                          const RotationPrior* prior = nullptr);
 
 }  // namespace mav::localization

@@ -2,6 +2,7 @@
 // Types shared by the stereo visual odometry methods of mav::localization.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -48,6 +49,10 @@ struct VoFrameResult {
   // Motion since the previous pair: T_prev_cur = T_world_prev^-1 * T_world_cur (identity when
   // lost or on the first frame).
   geometry::SE3 T_prev_cur;
+  // With a gyro prior (SparseVoOptions::gyro_rotation_sigma_rad): the rotation since the
+  // previous pair that the matches alone give (StereoMotionEstimate::vision_R_cur_prev), the
+  // gyro's bias is learnt against it. Unset otherwise.
+  std::optional<Eigen::Quaterniond> vision_R_prev_cur;
 
   // True when this pair started a new track: the first pair, or the first good pair after a
   // pair without usable features. The pose is held (T_prev_cur is identity) and state is OK.

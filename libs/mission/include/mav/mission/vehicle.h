@@ -67,6 +67,9 @@ struct VehicleOptions {
   double vo_tilt_sigma_rad = 3 * M_PI / 180;
   double vo_align_tilt_s = 2.0;
   double vo_latency_s = 0.05;
+  // The sparse VO's gyro prior: the noise of the gyro's rotation over one frame interval
+  // (SparseVoOptions::gyro_rotation_sigma_rad; 0 = vision only).
+  double vo_gyro_sigma_rad = 5e-4;
   control::ControllerType controller = control::ControllerType::kPaper;
   // The estimator's gate (EstimatorOptions::pose_gate_*) on every source.
   double pose_gate_m = 0.3;

@@ -93,7 +93,9 @@ struct LockstepDriver::Impl {
   std::unique_ptr<VehicleCamera> camera;  // vision in the loop (pose source vo)
   std::unique_ptr<localization::RigOdometry> vo;
   geometry::SE3 T_vehicle_rig;
-  Eigen::Matrix3d R_rig_vehicle;
+  // The vehicle IMU's rotation into the rig's frame, as mav-localization applies it (its
+  // t_body_imu, a quaternion): the same arithmetic, so the two drivers' gyro agree to the bit.
+  Eigen::Quaterniond q_rig_vehicle;
   std::shared_ptr<const planning::PlanningMap> map;
   dataset::OccupancyGrid truth_grid;     // the world's exact occupancy (also the map's geometry)
   dataset::OccupancyGrid planning_grid;  // what `map` was built from
@@ -219,7 +221,7 @@ Result<std::unique_ptr<LockstepDriver>> LockstepDriver::Create(const dataset::Mi
   s.out = &s.sim->Initial();
   s.last_p = s.out->truth.p_world;
   s.T_vehicle_rig = VehicleRigMount(options.vehicle.camera_pitch_rad);
-  s.R_rig_vehicle = s.T_vehicle_rig.Rotation().toRotationMatrix().transpose();
+  s.q_rig_vehicle = s.T_vehicle_rig.Inverse().Rotation();
   MAV_ASSIGN_OR_RETURN(control::Autopilot autopilot,
                        control::Autopilot::Create(MissionAutopilotOptions(task, vehicle)));
   s.ap = std::make_unique<control::Autopilot>(std::move(autopilot));
@@ -346,7 +348,7 @@ void LockstepDriver::Impl::StepOnce() {
     pending.pop_front();
   }
   const control::ImuMeasurement imu{out->imu.t_ns, out->imu.gyro, out->imu.accel};
-  if (vo) vo->AddGyro(imu.t_ns, R_rig_vehicle * imu.gyro);
+  if (vo) vo->AddGyro(imu.t_ns, q_rig_vehicle * imu.gyro);
   const control::RotorVector& command = ap->FeedImu(imu);
   out = &sim->Step(command);  // control:: and sim::RotorVector are one Eigen type
   stats.path_m += (out->truth.p_world - last_p).norm();

@@ -84,8 +84,8 @@ RigOdometry::RigOdometry(RigOdometryOptions options, camera::RigRectification re
 void RigOdometry::AddGyro(int64_t t_ns, const Eigen::Vector3d& omega_body) {
   if (!omega_body.allFinite()) return;
   if (!gyro_.empty() && t_ns <= gyro_.back().t_ns) {
-    // A repeated or late sample is dropped; a clock that went back by more than the history's
-    // span is a new stream (a replay started again).
+    // A repeated or late sample is dropped; a clock that went back by more than
+    // kNewGyroStreamNs (1 s) is a new stream (a replay started again).
     if (t_ns >= gyro_.back().t_ns - kNewGyroStreamNs) return;
     gyro_.clear();
   }

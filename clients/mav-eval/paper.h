@@ -1,5 +1,5 @@
 #pragma once
-// The reference paper's published figures (Holzmann et al. 2015; ../shared/PAPER_RESULTS.md),
+// The reference paper's published figures (Holzmann et al., OAGM 2015, arXiv 1505.01065),
 // printed beside ours.
 
 #include <array>

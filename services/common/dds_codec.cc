@@ -1,5 +1,6 @@
 #include "services/common/dds_codec.h"
 
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -13,6 +14,27 @@ uint32_t StereoCrc32(const uint8_t* left, size_t left_size, const uint8_t* right
   crc = crc32_z(crc, left, left_size);
   crc = crc32_z(crc, right, right_size);
   return static_cast<uint32_t>(crc);
+}
+
+Status CheckFinite(const mav_dds_Vector3& v, const char* field) {
+  if (!std::isfinite(v.x)) return Status::InvalidArgument(std::string(field) + ".x: not finite");
+  if (!std::isfinite(v.y)) return Status::InvalidArgument(std::string(field) + ".y: not finite");
+  if (!std::isfinite(v.z)) return Status::InvalidArgument(std::string(field) + ".z: not finite");
+  return Status::Ok();
+}
+
+Result<geometry::SE3> PoseFromDds(const mav_dds_Vector3& position,
+                                  const mav_dds_Quaternion& orientation) {
+  MAV_RETURN_IF_ERROR(CheckFinite(position, "position"));
+  const mav_dds_Quaternion& q = orientation;
+  const double norm = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  if (!std::isfinite(norm) || std::abs(norm - 1.0) > 1e-3) {
+    return Status::InvalidArgument("orientation: norm " + Number(norm) +
+                                   ", expected a unit quaternion (w first)");
+  }
+  // SE3 normalizes only a quaternion that is not unit to rounding: a unit one passes bit for bit.
+  return geometry::SE3(Eigen::Quaterniond(q.w, q.x, q.y, q.z),
+                       Eigen::Vector3d(position.x, position.y, position.z));
 }
 
 Status CheckStereoFrame(const mav_dds_StereoFrame& frame) {

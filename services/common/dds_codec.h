@@ -24,6 +24,16 @@ Status CheckStereoFrame(const mav_dds_StereoFrame& frame);
 // A checked frame's pixels, copied out of the (loaned) sample buffers.
 dataset::StereoPair StereoFromDds(const mav_dds_StereoFrame& frame);
 
+// "<field>.x: not finite" for the first component that is not.
+Status CheckFinite(const mav_dds_Vector3& v, const char* field);
+
+// A pose sample's position and orientation, checked as the IDL says (every service that reads
+// poses, the same rule): finite position, quaternion (w first) of norm within 1e-3 of 1, then
+// normalised. InvalidArgument "position.y: not finite" / "orientation: norm 1.5, expected a unit
+// quaternion". The tracking state is the reader's to judge.
+Result<geometry::SE3> PoseFromDds(const mav_dds_Vector3& position,
+                                  const mav_dds_Quaternion& orientation);
+
 // Copies a NUL-terminated id into an IDL string<32> field, truncating if needed.
 void CopyId(const char* id, char (&out)[33]);
 

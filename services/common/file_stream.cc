@@ -17,12 +17,7 @@ Result<uint32_t> ChunkSize(uint32_t requested) {
 }
 
 Result<v1::OccupancyFormat> OccupancyFormatFromProto(v1::OccupancyFormat format) {
-  if (format == v1::OCCUPANCY_FORMAT_UNSPECIFIED) return v1::OCCUPANCY_FORMAT_OCTOMAP_BT;
-  if (format != v1::OCCUPANCY_FORMAT_OCTOMAP_BT && format != v1::OCCUPANCY_FORMAT_MAVOCC) {
-    return Status::InvalidArgument("format: unknown value " +
-                                   std::to_string(static_cast<int>(format)));
-  }
-  return format;
+  return kOccupancyFormatCodec.FromProto(format, "format");
 }
 
 grpc::Status StreamChunks(grpc::ServerContext* context, const std::string& bytes,

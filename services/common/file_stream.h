@@ -14,6 +14,7 @@
 
 #include "mav/common/status.h"
 #include "mav/dataset/occupancy_grid.h"
+#include "services/common/proto_enum.h"
 
 namespace mav::service_common {
 
@@ -24,6 +25,14 @@ inline constexpr uint32_t kMaxChunkBytes = 4 << 20;
 // The chunk size of a request (0 = 1 MiB); InvalidArgument "chunk_size: must be in [4096,
 // 4194304] bytes, got N".
 Result<uint32_t> ChunkSize(uint32_t requested);
+
+// UNSPECIFIED means OCTOMAP_BT.
+inline constexpr auto kOccupancyFormatCodec =
+    MakeEnumCodec<v1::OccupancyFormat, v1::OccupancyFormat>(
+        v1::OccupancyFormat_descriptor,
+        {{v1::OCCUPANCY_FORMAT_OCTOMAP_BT, v1::OCCUPANCY_FORMAT_OCTOMAP_BT},
+         {v1::OCCUPANCY_FORMAT_MAVOCC, v1::OCCUPANCY_FORMAT_MAVOCC}},
+        v1::OCCUPANCY_FORMAT_OCTOMAP_BT);
 
 // The format of a request (UNSPECIFIED = OCTOMAP_BT); InvalidArgument "format: unknown value N".
 Result<v1::OccupancyFormat> OccupancyFormatFromProto(v1::OccupancyFormat format);

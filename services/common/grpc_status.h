@@ -1,7 +1,7 @@
 #pragma once
 // The one mapping between the library's Status codes and gRPC status codes, and the deadline of
 // a call as a library Termination. Every service handler returns ToGrpcStatus(status); nothing
-// builds a grpc::Status by hand (docs/contracts.md, "Status codes").
+// builds a grpc::Status by hand (docs/contracts.md, "Errors").
 //
 //   kInvalidArgument    -> INVALID_ARGUMENT     kResourceExhausted -> RESOURCE_EXHAUSTED
 //   kNotFound           -> NOT_FOUND            kDeadlineExceeded  -> DEADLINE_EXCEEDED

@@ -1,9 +1,12 @@
 #include "services/common/proto_codec.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <sstream>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 namespace mav::service_common {
 
@@ -11,6 +14,134 @@ std::string Number(double v) {
   std::ostringstream out;
   out << v;
   return out.str();
+}
+
+namespace {
+
+Status NotFinite(const std::string& field) {
+  return Status::InvalidArgument(field + ": not finite");
+}
+
+// Exactly 6 finite coefficients (a quintic, ascending powers).
+Status Coefficients(const google::protobuf::RepeatedField<double>& c, const std::string& field,
+                    geometry::Vector6d* out) {
+  if (c.size() != 6) {
+    return Status::InvalidArgument(field + ": " + std::to_string(c.size()) +
+                                   " coefficients, expected 6 (a quintic, ascending powers)");
+  }
+  for (int k = 0; k < 6; ++k) {
+    if (!std::isfinite(c[k])) return NotFinite(field + "[" + std::to_string(k) + "]");
+    (*out)[k] = c[k];
+  }
+  return Status::Ok();
+}
+
+Result<geometry::PolynomialSegment> SegmentFromProto(const v1::PolynomialSegment& in,
+                                                     geometry::YawPolicy policy,
+                                                     const std::string& field) {
+  geometry::PolynomialSegment out;
+  if (!std::isfinite(in.duration_s()) || in.duration_s() <= 0) {
+    return Status::InvalidArgument(field + ".duration_s: must be > 0 and finite, got " +
+                                   Number(in.duration_s()));
+  }
+  out.duration_s = in.duration_s();
+  const std::pair<const google::protobuf::RepeatedField<double>*, const char*> axes[] = {
+      {&in.x(), ".x"}, {&in.y(), ".y"}, {&in.z(), ".z"}};
+  for (int a = 0; a < 3; ++a) {
+    geometry::Vector6d c;
+    MAV_RETURN_IF_ERROR(Coefficients(*axes[a].first, field + axes[a].second, &c));
+    out.coefficients.row(a) = c.transpose();
+  }
+  if (in.yaw_size() != 0) {
+    geometry::Vector6d c;
+    MAV_RETURN_IF_ERROR(Coefficients(in.yaw(), field + ".yaw", &c));
+    out.yaw = c;
+  } else if (policy == geometry::YawPolicy::kSegment) {
+    return Status::InvalidArgument(field + ".yaw: YAW_POLICY_SEGMENT needs 6 yaw coefficients");
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<Eigen::Vector3d> VectorFromProto(const v1::Vector3& v, const std::string& field) {
+  if (!std::isfinite(v.x())) return NotFinite(field + ".x");
+  if (!std::isfinite(v.y())) return NotFinite(field + ".y");
+  if (!std::isfinite(v.z())) return NotFinite(field + ".z");
+  return Eigen::Vector3d(v.x(), v.y(), v.z());
+}
+
+void ToProto(const Eigen::Vector3d& v, v1::Vector3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+
+Result<Eigen::AlignedBox3d> BoxFromProto(const v1::Box& box, const std::string& field) {
+  MAV_ASSIGN_OR_RETURN(const Eigen::Vector3d min, VectorFromProto(box.min(), field + ".min"));
+  MAV_ASSIGN_OR_RETURN(const Eigen::Vector3d max, VectorFromProto(box.max(), field + ".max"));
+  for (int i = 0; i < 3; ++i) {
+    if (min[i] > max[i]) {
+      const std::string axis(1, "xyz"[i]);
+      return Status::InvalidArgument(field + ": min." + axis + " " + Number(min[i]) + " > max." +
+                                     axis + " " + Number(max[i]));
+    }
+  }
+  return Eigen::AlignedBox3d(min, max);
+}
+
+void ToProto(const Eigen::AlignedBox3d& box, v1::Box* out) {
+  ToProto(Eigen::Vector3d(box.min()), out->mutable_min());
+  ToProto(Eigen::Vector3d(box.max()), out->mutable_max());
+}
+
+Result<geometry::PolynomialTrajectory> TrajectoryFromProto(const v1::PolynomialTrajectory& proto,
+                                                           const std::string& field) {
+  if (proto.segments_size() == 0) return Status::InvalidArgument(field + ".segments: no segments");
+  if (proto.segments_size() > kMaxTrajectorySegments) {
+    return Status::InvalidArgument(field + ".segments: " + std::to_string(proto.segments_size()) +
+                                   " segments, at most " + std::to_string(kMaxTrajectorySegments));
+  }
+  MAV_ASSIGN_OR_RETURN(const geometry::YawPolicy policy,
+                       kYawPolicyCodec.FromProto(proto.yaw_policy(), field + ".yaw_policy"));
+  if (!std::isfinite(proto.start_yaw_rad())) return NotFinite(field + ".start_yaw_rad");
+  std::vector<geometry::PolynomialSegment> segments;
+  segments.reserve(static_cast<size_t>(proto.segments_size()));
+  double total_s = 0;
+  for (int i = 0; i < proto.segments_size(); ++i) {
+    MAV_ASSIGN_OR_RETURN(geometry::PolynomialSegment segment,
+                         SegmentFromProto(proto.segments(i), policy,
+                                          field + ".segments[" + std::to_string(i) + "]"));
+    total_s += segment.duration_s;
+    segments.push_back(std::move(segment));
+  }
+  if (proto.duration_s() != 0 &&
+      !(std::abs(proto.duration_s() - total_s) <= 1e-6 * std::max(1.0, total_s))) {
+    return Status::InvalidArgument(field + ".duration_s: " + Number(proto.duration_s()) +
+                                   " s is not the sum of the segment durations, " +
+                                   Number(total_s) + " s");
+  }
+  // Everything the library refuses was refused above; its messages name "segments[i]..." on.
+  Result<geometry::PolynomialTrajectory> trajectory =
+      geometry::PolynomialTrajectory::Create(std::move(segments), policy, proto.start_yaw_rad());
+  if (!trajectory.ok()) return Status::InvalidArgument(field + "." + trajectory.status().message());
+  return trajectory;
+}
+
+void ToProto(const geometry::PolynomialTrajectory& trajectory, v1::PolynomialTrajectory* out) {
+  for (const geometry::PolynomialSegment& s : trajectory.segments()) {
+    v1::PolynomialSegment* segment = out->add_segments();
+    segment->set_duration_s(s.duration_s);
+    for (int k = 0; k < 6; ++k) {
+      segment->add_x(s.coefficients(0, k));
+      segment->add_y(s.coefficients(1, k));
+      segment->add_z(s.coefficients(2, k));
+      if (s.yaw.has_value()) segment->add_yaw((*s.yaw)[k]);
+    }
+  }
+  out->set_yaw_policy(kYawPolicyCodec.ToProto(trajectory.yaw_policy()));
+  out->set_start_yaw_rad(trajectory.start_yaw_rad());
+  out->set_duration_s(trajectory.duration_s());
 }
 
 void ToProto(const RuntimeStats& stats, v1::RuntimeStats* out) {

@@ -32,12 +32,6 @@ Status PickVector(const v1::Vector3& v, const std::string& field, Eigen::Vector3
   return Pick(v.z(), field + ".z", &target->z());
 }
 
-void ToProto(const Eigen::Vector3d& v, v1::Vector3* out) {
-  out->set_x(v.x());
-  out->set_y(v.y());
-  out->set_z(v.z());
-}
-
 // The library names vector components [0] [1] [2] and its own option paths; the proto's are .x
 // .y .z and the request's field names.
 std::string ProtoPath(std::string message) {
@@ -68,32 +62,6 @@ std::string ProtoPath(std::string message) {
     }
   }
   return message;
-}
-
-Result<control::ControllerType> ControllerFromProto(v1::ControllerType type) {
-  switch (type) {
-    case v1::CONTROLLER_TYPE_UNSPECIFIED:
-    case v1::CONTROLLER_TYPE_PAPER:
-      return control::ControllerType::kPaper;
-    case v1::CONTROLLER_TYPE_LEE:
-      return control::ControllerType::kLee;
-    default:
-      return Status::InvalidArgument("controller: unknown value " +
-                                     std::to_string(static_cast<int>(type)));
-  }
-}
-
-Result<control::ImuLossPolicy> PolicyFromProto(v1::ImuLossPolicy policy) {
-  switch (policy) {
-    case v1::IMU_LOSS_POLICY_UNSPECIFIED:
-    case v1::IMU_LOSS_POLICY_MOTORS_OFF:
-      return control::ImuLossPolicy::kMotorsOff;
-    case v1::IMU_LOSS_POLICY_HOLD_LAST_COMMAND:
-      return control::ImuLossPolicy::kHoldLastCommand;
-    default:
-      return Status::InvalidArgument("imu_loss_policy: unknown value " +
-                                     std::to_string(static_cast<int>(policy)));
-  }
 }
 
 Status VehicleFromProto(const v1::VehicleParameters& v, control::VehicleParameters* out) {
@@ -251,13 +219,6 @@ Status EstimatorFromProto(const v1::EstimatorConfig& e, control::EstimatorOption
 
 }  // namespace
 
-Result<Eigen::Vector3d> VectorFromProto(const v1::Vector3& v, const std::string& field) {
-  if (!std::isfinite(v.x())) return NotFinite(field + ".x");
-  if (!std::isfinite(v.y())) return NotFinite(field + ".y");
-  if (!std::isfinite(v.z())) return NotFinite(field + ".z");
-  return Eigen::Vector3d(v.x(), v.y(), v.z());
-}
-
 Result<control::PaperControllerGains> PaperGainsFromProto(const v1::ControllerGains& g,
                                                           const std::string& field) {
   control::PaperControllerGains out;
@@ -307,13 +268,14 @@ Result<ControlConfig> ConfigFromProto(const v1::ControlConfigureRequest& r) {
   MAV_RETURN_IF_ERROR(VehicleFromProto(r.vehicle(), &o.vehicle));
   MAV_RETURN_IF_ERROR(
       EstimatorFromProto(r.estimator(), &o.estimator, &config.pose_frames, &config.lockstep_poses));
-  MAV_ASSIGN_OR_RETURN(o.controller, ControllerFromProto(r.controller()));
+  MAV_ASSIGN_OR_RETURN(o.controller, kControllerCodec.FromProto(r.controller(), "controller"));
   MAV_ASSIGN_OR_RETURN(o.paper_gains, PaperGainsFromProto(r.gains(), "gains"));
   MAV_ASSIGN_OR_RETURN(o.lee_gains, LeeGainsFromProto(r.lee_gains(), "lee_gains"));
   MAV_RETURN_IF_ERROR(Pick(r.max_tilt_rad(), "max_tilt_rad", &o.max_tilt_rad));
   MAV_ASSIGN_OR_RETURN(o.goto_limits, LimitsFromProto(r.goto_limits(), "goto_limits"));
   MAV_RETURN_IF_ERROR(Pick(r.imu_timeout_s(), "imu_timeout_s", &o.imu_timeout_s));
-  MAV_ASSIGN_OR_RETURN(o.imu_loss_policy, PolicyFromProto(r.imu_loss_policy()));
+  MAV_ASSIGN_OR_RETURN(o.imu_loss_policy,
+                       kImuLossPolicyCodec.FromProto(r.imu_loss_policy(), "imu_loss_policy"));
   MAV_RETURN_IF_ERROR(Pick(r.pose_timeout_s(), "pose_timeout_s", &o.pose_timeout_s));
   MAV_RETURN_IF_ERROR(
       Pick(r.failsafe_descent_mps(), "failsafe_descent_mps", &o.failsafe_descent_mps));
@@ -401,8 +363,7 @@ void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out) {
   ToProto(o.lee_gains.attitude_gain, pl->mutable_attitude_gain());
   ToProto(o.lee_gains.angular_rate_gain, pl->mutable_angular_rate_gain());
 
-  out->set_controller(o.controller == control::ControllerType::kLee ? v1::CONTROLLER_TYPE_LEE
-                                                                    : v1::CONTROLLER_TYPE_PAPER);
+  out->set_controller(kControllerCodec.ToProto(o.controller));
   out->set_max_tilt_rad(o.max_tilt_rad);
   v1::GoToLimits* l = out->mutable_goto_limits();
   l->set_max_speed_mps(o.goto_limits.max_speed_mps);
@@ -410,9 +371,7 @@ void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out) {
   l->set_max_yaw_rate_radps(o.goto_limits.max_yaw_rate_radps);
   l->set_min_duration_s(o.goto_limits.min_duration_s);
   out->set_imu_timeout_s(o.imu_timeout_s);
-  out->set_imu_loss_policy(o.imu_loss_policy == control::ImuLossPolicy::kHoldLastCommand
-                               ? v1::IMU_LOSS_POLICY_HOLD_LAST_COMMAND
-                               : v1::IMU_LOSS_POLICY_MOTORS_OFF);
+  out->set_imu_loss_policy(kImuLossPolicyCodec.ToProto(o.imu_loss_policy));
   out->set_pose_timeout_s(o.pose_timeout_s);
   out->set_failsafe_descent_mps(o.failsafe_descent_mps);
   out->set_max_trajectory_jump_m(o.max_trajectory_jump_m);
@@ -443,109 +402,6 @@ Result<dataset::FlightTask> FlightTaskFromSpec(const std::string& name_or_file,
       name_or_file.size() > 5 && name_or_file.compare(name_or_file.size() - 5, 5, ".yaml") == 0;
   if (is_file) return dataset::ReadFlightTaskFile(name_or_file, resolve, "t3_1");
   return resolve(name_or_file);
-}
-
-Result<geometry::PolynomialTrajectory> TrajectoryFromProto(const v1::PolynomialTrajectory& t,
-                                                           const std::string& field) {
-  if (t.segments_size() == 0) return Status::InvalidArgument(field + ".segments: no segments");
-  if (t.segments_size() > kMaxTrajectorySegments) {
-    return Status::InvalidArgument(field + ".segments: " + std::to_string(t.segments_size()) +
-                                   " segments, at most " + std::to_string(kMaxTrajectorySegments));
-  }
-  geometry::YawPolicy policy = geometry::YawPolicy::kConstant;
-  switch (t.yaw_policy()) {
-    case v1::YAW_POLICY_UNSPECIFIED:
-    case v1::YAW_POLICY_CONSTANT:
-      break;
-    case v1::YAW_POLICY_ALONG_PATH:
-      policy = geometry::YawPolicy::kAlongPath;
-      break;
-    case v1::YAW_POLICY_SEGMENT:
-      policy = geometry::YawPolicy::kSegment;
-      break;
-    default:
-      return Status::InvalidArgument(field + ".yaw_policy: unknown value " +
-                                     std::to_string(static_cast<int>(t.yaw_policy())));
-  }
-  if (!std::isfinite(t.start_yaw_rad())) return NotFinite(field + ".start_yaw_rad");
-  std::vector<geometry::PolynomialSegment> segments(static_cast<size_t>(t.segments_size()));
-  double total_s = 0;
-  for (int i = 0; i < t.segments_size(); ++i) {
-    const v1::PolynomialSegment& in = t.segments(i);
-    const std::string seg = field + ".segments[" + std::to_string(i) + "]";
-    geometry::PolynomialSegment& out = segments[static_cast<size_t>(i)];
-    if (!std::isfinite(in.duration_s()) || in.duration_s() <= 0) {
-      return Status::InvalidArgument(seg + ".duration_s: must be > 0 and finite, got " +
-                                     Number(in.duration_s()));
-    }
-    out.duration_s = in.duration_s();
-    total_s += in.duration_s();
-    const google::protobuf::RepeatedField<double>* axes[3] = {&in.x(), &in.y(), &in.z()};
-    static const char* const kNames[3] = {"x", "y", "z"};
-    for (int a = 0; a < 3; ++a) {
-      if (axes[a]->size() != 6) {
-        return Status::InvalidArgument(seg + "." + kNames[a] + ": " +
-                                       std::to_string(axes[a]->size()) +
-                                       " coefficients, expected 6 (ascending powers)");
-      }
-      for (int k = 0; k < 6; ++k) {
-        const double c = axes[a]->Get(k);
-        if (!std::isfinite(c)) {
-          return NotFinite(seg + "." + kNames[a] + "[" + std::to_string(k) + "]");
-        }
-        out.coefficients(a, k) = c;
-      }
-    }
-    if (in.yaw_size() != 0) {
-      if (in.yaw_size() != 6) {
-        return Status::InvalidArgument(seg + ".yaw: " + std::to_string(in.yaw_size()) +
-                                       " coefficients, expected 0 or 6");
-      }
-      geometry::Vector6d yaw;
-      for (int k = 0; k < 6; ++k) {
-        if (!std::isfinite(in.yaw(k))) return NotFinite(seg + ".yaw[" + std::to_string(k) + "]");
-        yaw[k] = in.yaw(k);
-      }
-      out.yaw = yaw;
-    } else if (policy == geometry::YawPolicy::kSegment) {
-      return Status::InvalidArgument(seg + ".yaw: YAW_POLICY_SEGMENT needs 6 yaw coefficients");
-    }
-  }
-  if (t.duration_s() != 0 && std::abs(t.duration_s() - total_s) > 1e-6 * std::max(1.0, total_s)) {
-    return Status::InvalidArgument(field + ".duration_s: " + Number(t.duration_s()) +
-                                   " s is not the sum of the segment durations, " +
-                                   Number(total_s) + " s");
-  }
-  Result<geometry::PolynomialTrajectory> trajectory =
-      geometry::PolynomialTrajectory::Create(std::move(segments), policy, t.start_yaw_rad());
-  if (!trajectory.ok()) return Status::InvalidArgument(field + "." + trajectory.status().message());
-  return trajectory;
-}
-
-void ToProto(const geometry::PolynomialTrajectory& trajectory, v1::PolynomialTrajectory* out) {
-  for (const geometry::PolynomialSegment& s : trajectory.segments()) {
-    v1::PolynomialSegment* o = out->add_segments();
-    o->set_duration_s(s.duration_s);
-    for (int k = 0; k < 6; ++k) {
-      o->add_x(s.coefficients(0, k));
-      o->add_y(s.coefficients(1, k));
-      o->add_z(s.coefficients(2, k));
-      if (s.yaw.has_value()) o->add_yaw((*s.yaw)[k]);
-    }
-  }
-  switch (trajectory.yaw_policy()) {
-    case geometry::YawPolicy::kConstant:
-      out->set_yaw_policy(v1::YAW_POLICY_CONSTANT);
-      break;
-    case geometry::YawPolicy::kAlongPath:
-      out->set_yaw_policy(v1::YAW_POLICY_ALONG_PATH);
-      break;
-    case geometry::YawPolicy::kSegment:
-      out->set_yaw_policy(v1::YAW_POLICY_SEGMENT);
-      break;
-  }
-  out->set_start_yaw_rad(trajectory.start_yaw_rad());
-  out->set_duration_s(trajectory.duration_s());
 }
 
 v1::ControlMode ToProto(control::FlightMode mode) {

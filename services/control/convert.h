@@ -44,20 +44,30 @@ Result<control::PaperControllerGains> PaperGainsFromProto(const v1::ControllerGa
 Result<control::LeeControllerGains> LeeGainsFromProto(const v1::LeeGains& gains,
                                                       const std::string& field);
 Result<control::GoToLimits> LimitsFromProto(const v1::GoToLimits& limits, const std::string& field);
-// A finite vector; InvalidArgument "<field>.x: not finite".
-Result<Eigen::Vector3d> VectorFromProto(const v1::Vector3& v, const std::string& field);
-
-// At most this many segments per trajectory (a 4 MiB message holds ~20000).
-inline constexpr int kMaxTrajectorySegments = 10000;
-// InvalidArgument naming "<field>.segments[i].duration_s" (<= 0 or not finite), "<field>.
-// segments[i].x" (not 6 coefficients, or not finite), "<field>.segments" (none, too many),
-// "<field>.yaw_policy", "<field>.duration_s" (not the sum of the segments').
-Result<geometry::PolynomialTrajectory> TrajectoryFromProto(const v1::PolynomialTrajectory& t,
-                                                           const std::string& field);
-void ToProto(const geometry::PolynomialTrajectory& trajectory, v1::PolynomialTrajectory* out);
+// The shared messages (vectors, trajectories) go through the one codec.
+using service_common::ToProto;
+using service_common::TrajectoryFromProto;
+using service_common::VectorFromProto;
 
 v1::ControlMode ToProto(control::FlightMode mode);
 void ToProto(const ControlCoreStatus& status, bool dds_input, v1::ControlStatus* out);
 void ToProto(const ControlCoreState& state, v1::ControlState* out);
+
+// The enums of control.proto (tests/contract/shared_messages_test.cc checks each table).
+// UNSPECIFIED means PAPER.
+inline constexpr auto kControllerCodec =
+    service_common::MakeEnumCodec<v1::ControllerType, control::ControllerType>(
+        v1::ControllerType_descriptor,
+        {{v1::CONTROLLER_TYPE_PAPER, control::ControllerType::kPaper},
+         {v1::CONTROLLER_TYPE_LEE, control::ControllerType::kLee}},
+        control::ControllerType::kPaper);
+
+// UNSPECIFIED means MOTORS_OFF.
+inline constexpr auto kImuLossPolicyCodec =
+    service_common::MakeEnumCodec<v1::ImuLossPolicy, control::ImuLossPolicy>(
+        v1::ImuLossPolicy_descriptor,
+        {{v1::IMU_LOSS_POLICY_MOTORS_OFF, control::ImuLossPolicy::kMotorsOff},
+         {v1::IMU_LOSS_POLICY_HOLD_LAST_COMMAND, control::ImuLossPolicy::kHoldLastCommand}},
+        control::ImuLossPolicy::kMotorsOff);
 
 }  // namespace mav::control_service

@@ -7,19 +7,13 @@
 
 #include "mav/common/log.h"
 #include "mav/common/time.h"
+#include "services/common/dds_codec.h"
 
 namespace mav::control_service {
 
 namespace {
 
 constexpr int64_t kPollNs = 20'000'000;  // IMU watchdog granularity (the timeout is 100 ms)
-
-Status CheckFinite(const mav_dds_Vector3& v, const char* field) {
-  if (!std::isfinite(v.x)) return Status::InvalidArgument(std::string(field) + ".x: not finite");
-  if (!std::isfinite(v.y)) return Status::InvalidArgument(std::string(field) + ".y: not finite");
-  if (!std::isfinite(v.z)) return Status::InvalidArgument(std::string(field) + ".z: not finite");
-  return Status::Ok();
-}
 
 }  // namespace
 
@@ -41,8 +35,8 @@ mav_dds_ActuatorCommand ToDds(const ActuatorOutput& command, int64_t publish_t_n
 }
 
 Result<control::ImuMeasurement> FromDds(const mav_dds_ImuSample& sample) {
-  MAV_RETURN_IF_ERROR(CheckFinite(sample.gyro, "gyro"));
-  MAV_RETURN_IF_ERROR(CheckFinite(sample.accel, "accel"));
+  MAV_RETURN_IF_ERROR(service_common::CheckFinite(sample.gyro, "gyro"));
+  MAV_RETURN_IF_ERROR(service_common::CheckFinite(sample.accel, "accel"));
   control::ImuMeasurement out;
   out.t_ns = sample.t_ns;
   out.gyro = Eigen::Vector3d(sample.gyro.x, sample.gyro.y, sample.gyro.z);
@@ -57,20 +51,12 @@ Result<PoseInput> FromDds(const mav_dds_PoseWithCovariance& pose) {
         "tracking_state: " + std::to_string(static_cast<int>(pose.tracking_state)) +
         " is not OK/INITIALIZING");
   }
-  MAV_RETURN_IF_ERROR(CheckFinite(pose.position, "position"));
-  const mav_dds_Quaternion& q = pose.orientation;
-  const double norm = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
-  if (!std::isfinite(norm) || std::abs(norm - 1.0) > 1e-3) {
-    return Status::InvalidArgument("orientation: norm " + std::to_string(norm) +
-                                   ", expected a unit quaternion");
-  }
+  MAV_ASSIGN_OR_RETURN(const geometry::SE3 T_world_sensor,
+                       service_common::PoseFromDds(pose.position, pose.orientation));
   PoseInput out;
   out.frame_id = std::string(pose.child_frame_id, strnlen(pose.child_frame_id, 32));
   out.t_ns = pose.t_ns;
-  // SE3 normalizes only a quaternion that is not unit to rounding: a unit one passes bit for bit.
-  out.T_world_sensor =
-      geometry::SE3(Eigen::Quaterniond(q.w, q.x, q.y, q.z),
-                    Eigen::Vector3d(pose.position.x, pose.position.y, pose.position.z));
+  out.T_world_sensor = T_world_sensor;
   return out;
 }
 

@@ -116,36 +116,10 @@ Status DenseFromProto(const v1::DenseVoOptions& in, localization::DenseVoOptions
 }  // namespace
 
 Result<Method> MethodFromProto(v1::LocalizationMethod method) {
-  switch (method) {
-    case v1::LOCALIZATION_METHOD_SPARSE_PIXEL:
-      return Method::kSparsePixel;
-    case v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL:
-      return Method::kSparseSubpixel;
-    case v1::LOCALIZATION_METHOD_DENSE:
-      return Method::kDense;
-    case v1::LOCALIZATION_METHOD_UNSPECIFIED:
-      return Status::InvalidArgument(
-          "method: not set (LOCALIZATION_METHOD_UNSPECIFIED); use SPARSE_PIXEL, SPARSE_SUBPIXEL "
-          "or DENSE");
-    default:
-      break;
-  }
-  return Status::InvalidArgument("method: unknown value " +
-                                 std::to_string(static_cast<int>(method)) +
-                                 " (known: SPARSE_PIXEL=1, SPARSE_SUBPIXEL=2, DENSE=3)");
+  return kMethodCodec.FromProto(method, "method");
 }
 
-v1::LocalizationMethod ToProto(Method method) {
-  switch (method) {
-    case Method::kSparsePixel:
-      return v1::LOCALIZATION_METHOD_SPARSE_PIXEL;
-    case Method::kSparseSubpixel:
-      return v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL;
-    case Method::kDense:
-      return v1::LOCALIZATION_METHOD_DENSE;
-  }
-  return v1::LOCALIZATION_METHOD_UNSPECIFIED;
-}
+v1::LocalizationMethod ToProto(Method method) { return kMethodCodec.ToProto(method); }
 
 Result<LocalizerConfig> ConfigFromProto(const v1::LocalizationConfigureRequest& request) {
   LocalizerConfig config;

@@ -43,4 +43,13 @@ void ToProto(const LocalizerStatus& status, bool dds_input, v1::LocalizationStat
 v1::TrackingState ToProto(ReportedState state);
 v1::LocalizationServiceState ToProto(LocalizerState state);
 
+// The enum of localization.proto (tests/contract/shared_messages_test.cc checks the table).
+// UNSPECIFIED is refused: the method has no default.
+inline constexpr auto kMethodCodec = service_common::MakeEnumCodec<v1::LocalizationMethod, Method>(
+    v1::LocalizationMethod_descriptor,
+    {{v1::LOCALIZATION_METHOD_SPARSE_PIXEL, Method::kSparsePixel},
+     {v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL, Method::kSparseSubpixel},
+     {v1::LOCALIZATION_METHOD_DENSE, Method::kDense}},
+    std::nullopt);
+
 }  // namespace mav::localization_service

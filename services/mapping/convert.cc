@@ -38,57 +38,20 @@ Eigen::AlignedBox3d BoundsOf(const dataset::GridGeometry& g) {
 Result<std::optional<MappingMethod>> MethodFromProto(v1::MappingMethod method,
                                                      const std::string& field,
                                                      bool allow_unspecified) {
-  switch (method) {
-    case v1::MAPPING_METHOD_SPARSE_MESH:
-      return std::optional<MappingMethod>(MappingMethod::kSparseMesh);
-    case v1::MAPPING_METHOD_OCTOMAP:
-      return std::optional<MappingMethod>(MappingMethod::kOctomap);
-    case v1::MAPPING_METHOD_UNSPECIFIED:
-      if (allow_unspecified) return std::optional<MappingMethod>();
-      return Status::InvalidArgument(field +
-                                     ": not set (MAPPING_METHOD_UNSPECIFIED); use SPARSE_MESH or "
-                                     "OCTOMAP");
-    default:
-      break;
+  if (method == v1::MAPPING_METHOD_UNSPECIFIED && allow_unspecified) {
+    return std::optional<MappingMethod>();
   }
-  return Status::InvalidArgument(field + ": unknown value " +
-                                 std::to_string(static_cast<int>(method)) +
-                                 " (known: SPARSE_MESH=1, OCTOMAP=2)");
+  MAV_ASSIGN_OR_RETURN(const MappingMethod m, kMappingMethodCodec.FromProto(method, field));
+  return std::optional<MappingMethod>(m);
 }
 
-v1::MappingMethod ToProto(MappingMethod method) {
-  return method == MappingMethod::kSparseMesh ? v1::MAPPING_METHOD_SPARSE_MESH
-                                              : v1::MAPPING_METHOD_OCTOMAP;
-}
+v1::MappingMethod ToProto(MappingMethod method) { return kMappingMethodCodec.ToProto(method); }
 
 Result<PoseSource> PoseSourceFromProto(v1::PoseSource source) {
-  switch (source) {
-    case v1::POSE_SOURCE_UNSPECIFIED:
-    case v1::POSE_SOURCE_NONE:
-      return PoseSource::kNone;
-    case v1::POSE_SOURCE_LOCALIZATION:
-      return PoseSource::kLocalization;
-    case v1::POSE_SOURCE_GROUND_TRUTH:
-      return PoseSource::kGroundTruth;
-    default:
-      break;
-  }
-  return Status::InvalidArgument("pose_source: unknown value " +
-                                 std::to_string(static_cast<int>(source)) +
-                                 " (known: NONE=1, LOCALIZATION=2, GROUND_TRUTH=3)");
+  return kPoseSourceCodec.FromProto(source, "pose_source");
 }
 
-v1::PoseSource ToProto(PoseSource source) {
-  switch (source) {
-    case PoseSource::kNone:
-      return v1::POSE_SOURCE_NONE;
-    case PoseSource::kLocalization:
-      return v1::POSE_SOURCE_LOCALIZATION;
-    case PoseSource::kGroundTruth:
-      return v1::POSE_SOURCE_GROUND_TRUTH;
-  }
-  return v1::POSE_SOURCE_UNSPECIFIED;
-}
+v1::PoseSource ToProto(PoseSource source) { return kPoseSourceCodec.ToProto(source); }
 
 Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
                                        const SessionConfig& defaults) {
@@ -121,36 +84,6 @@ Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
   return config;
 }
 
-Result<Eigen::AlignedBox3d> BoxFromProto(const v1::Box& box, const std::string& field) {
-  const Eigen::Vector3d min(box.min().x(), box.min().y(), box.min().z());
-  const Eigen::Vector3d max(box.max().x(), box.max().y(), box.max().z());
-  static constexpr const char* kAxis[3] = {"x", "y", "z"};
-  for (int i = 0; i < 3; ++i) {
-    if (!std::isfinite(min[i])) {
-      return Status::InvalidArgument(field + ".min." + kAxis[i] + ": not finite");
-    }
-    if (!std::isfinite(max[i])) {
-      return Status::InvalidArgument(field + ".max." + kAxis[i] + ": not finite");
-    }
-  }
-  for (int i = 0; i < 3; ++i) {
-    if (min[i] > max[i]) {
-      return Status::InvalidArgument(field + ": min." + kAxis[i] + " " + Number(min[i]) +
-                                     " > max." + kAxis[i] + " " + Number(max[i]));
-    }
-  }
-  return Eigen::AlignedBox3d(min, max);
-}
-
-void ToProto(const Eigen::AlignedBox3d& box, v1::Box* out) {
-  out->mutable_min()->set_x(box.min().x());
-  out->mutable_min()->set_y(box.min().y());
-  out->mutable_min()->set_z(box.min().z());
-  out->mutable_max()->set_x(box.max().x());
-  out->mutable_max()->set_y(box.max().y());
-  out->mutable_max()->set_z(box.max().z());
-}
-
 Result<BuildRequest> BuildFromProto(const v1::BuildMapRequest& request) {
   BuildRequest out;
   MAV_ASSIGN_OR_RETURN(std::optional<MappingMethod> method,
@@ -169,34 +102,9 @@ Result<BuildRequest> BuildFromProto(const v1::BuildMapRequest& request) {
     }
     out.bounds = bounds;
   }
-  switch (request.unknown()) {
-    case v1::UNKNOWN_HANDLING_UNSPECIFIED:
-    case v1::UNKNOWN_HANDLING_KEEP_UNKNOWN:
-      out.unknown = UnknownHandling::kKeepUnknown;
-      break;
-    case v1::UNKNOWN_HANDLING_AS_OCCUPIED:
-      out.unknown = UnknownHandling::kAsOccupied;
-      break;
-    case v1::UNKNOWN_HANDLING_AS_FREE:
-      out.unknown = UnknownHandling::kAsFree;
-      break;
-    default:
-      return Status::InvalidArgument("unknown: unknown value " +
-                                     std::to_string(static_cast<int>(request.unknown())));
-  }
-
-  mapping::MapPreference preference = mapping::MapPreference::kSafety;
-  switch (request.prefer()) {
-    case v1::MAP_PREFERENCE_UNSPECIFIED:
-    case v1::MAP_PREFERENCE_SAFETY:
-      break;
-    case v1::MAP_PREFERENCE_MCC:
-      preference = mapping::MapPreference::kMcc;
-      break;
-    default:
-      return Status::InvalidArgument("prefer: unknown value " +
-                                     std::to_string(static_cast<int>(request.prefer())));
-  }
+  MAV_ASSIGN_OR_RETURN(out.unknown, kUnknownHandlingCodec.FromProto(request.unknown(), "unknown"));
+  MAV_ASSIGN_OR_RETURN(const mapping::MapPreference preference,
+                       kMapPreferenceCodec.FromProto(request.prefer(), "prefer"));
   const mapping::BuildOptions preferred = mapping::BuildOptions::For(preference);
   out.meshing = *preferred.meshing;
   out.mesh_to_grid = *preferred.mesh_to_grid;

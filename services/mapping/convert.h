@@ -43,9 +43,10 @@ Result<SessionConfig> SessionFromProto(const v1::StartSessionRequest& request,
 
 using service_common::StereoFromProto;  // a StereoPair message as a FrameInput (pixels copied)
 
-// A Box validated as common.proto says: "<field>.min.x: not finite", "<field>: min.z 3 > max.z 1".
-Result<Eigen::AlignedBox3d> BoxFromProto(const v1::Box& box, const std::string& field);
-void ToProto(const Eigen::AlignedBox3d& box, v1::Box* out);
+// The shared messages (boxes: "<field>.min.x: not finite", "<field>: min.z 3 > max.z 1") go
+// through the one codec.
+using service_common::BoxFromProto;
+using service_common::ToProto;
 
 // A BuildMapRequest: method (not UNSPECIFIED), resolution_m ([0.01, 2], 0 = 0.05), bounds,
 // unknown handling, sparse_mesh options (0 = library default; ranges as in the proto) and the
@@ -56,5 +57,46 @@ void ToProto(const MapStats& stats, v1::BuildMapResponse* out);
 void ToProto(const KeyframeResult& result, v1::InsertKeyframeResponse* out);
 void ToProto(const MapperStatus& status, v1::MappingStatus* out);
 v1::CollisionState ToProto(mapping::BoxQuery::Answer answer, bool unknown_is_collision);
+
+// The enums of mapping.proto (tests/contract/shared_messages_test.cc checks each table).
+inline constexpr auto kMappingMethodCodec =
+    service_common::MakeEnumCodec<v1::MappingMethod, MappingMethod>(
+        v1::MappingMethod_descriptor,
+        {{v1::MAPPING_METHOD_SPARSE_MESH, MappingMethod::kSparseMesh},
+         {v1::MAPPING_METHOD_OCTOMAP, MappingMethod::kOctomap}},
+        std::nullopt);
+
+// UNSPECIFIED means NONE.
+inline constexpr auto kPoseSourceCodec = service_common::MakeEnumCodec<v1::PoseSource, PoseSource>(
+    v1::PoseSource_descriptor,
+    {{v1::POSE_SOURCE_NONE, PoseSource::kNone},
+     {v1::POSE_SOURCE_LOCALIZATION, PoseSource::kLocalization},
+     {v1::POSE_SOURCE_GROUND_TRUTH, PoseSource::kGroundTruth}},
+    PoseSource::kNone);
+
+// UNSPECIFIED means KEEP_UNKNOWN.
+inline constexpr auto kUnknownHandlingCodec =
+    service_common::MakeEnumCodec<v1::UnknownHandling, UnknownHandling>(
+        v1::UnknownHandling_descriptor,
+        {{v1::UNKNOWN_HANDLING_KEEP_UNKNOWN, UnknownHandling::kKeepUnknown},
+         {v1::UNKNOWN_HANDLING_AS_OCCUPIED, UnknownHandling::kAsOccupied},
+         {v1::UNKNOWN_HANDLING_AS_FREE, UnknownHandling::kAsFree}},
+        UnknownHandling::kKeepUnknown);
+
+// UNSPECIFIED means SAFETY.
+inline constexpr auto kMapPreferenceCodec =
+    service_common::MakeEnumCodec<v1::MapPreference, mapping::MapPreference>(
+        v1::MapPreference_descriptor,
+        {{v1::MAP_PREFERENCE_SAFETY, mapping::MapPreference::kSafety},
+         {v1::MAP_PREFERENCE_MCC, mapping::MapPreference::kMcc}},
+        mapping::MapPreference::kSafety);
+
+// UNSPECIFIED means PLY_BINARY.
+inline constexpr auto kMeshFormatCodec =
+    service_common::MakeEnumCodec<v1::MeshFormat, mapping::PlyEncoding>(
+        v1::MeshFormat_descriptor,
+        {{v1::MESH_FORMAT_PLY_BINARY, mapping::PlyEncoding::kBinaryLittleEndian},
+         {v1::MESH_FORMAT_PLY_ASCII, mapping::PlyEncoding::kAscii}},
+        mapping::PlyEncoding::kBinaryLittleEndian);
 
 }  // namespace mav::mapping_service

@@ -14,29 +14,23 @@ constexpr int32_t kPoseBatch = 512;
 
 }  // namespace
 
-geometry::SE3 PoseFromDds(const mav_dds_GroundTruthState& state) {
-  const auto& q = state.orientation;
-  const auto& p = state.position;
-  return geometry::SE3(Eigen::Quaterniond(q.w, q.x, q.y, q.z), Eigen::Vector3d(p.x, p.y, p.z));
+Result<geometry::SE3> PoseFromDds(const mav_dds_GroundTruthState& state) {
+  return service_common::PoseFromDds(state.position, state.orientation);
 }
 
-geometry::SE3 PoseFromDds(const mav_dds_PoseWithCovariance& pose) {
-  const auto& q = pose.orientation;
-  const auto& p = pose.position;
-  return geometry::SE3(Eigen::Quaterniond(q.w, q.x, q.y, q.z), Eigen::Vector3d(p.x, p.y, p.z));
-}
-
-std::optional<geometry::SE3> BodyPoseFromDds(const mav_dds_PoseWithCovariance& pose,
-                                             const geometry::SE3& T_body_cam0) {
+Result<std::optional<geometry::SE3>> BodyPoseFromDds(const mav_dds_PoseWithCovariance& pose,
+                                                     const geometry::SE3& T_body_cam0) {
   if (pose.tracking_state != mav_dds_TRACKING_STATE_OK &&
       pose.tracking_state != mav_dds_TRACKING_STATE_INITIALIZING) {
-    return std::nullopt;
+    return std::optional<geometry::SE3>();
   }
-  const geometry::SE3 T_world_child = PoseFromDds(pose);
+  MAV_ASSIGN_OR_RETURN(const geometry::SE3 T_world_child,
+                       service_common::PoseFromDds(pose.position, pose.orientation));
   if (std::strcmp(pose.child_frame_id, "cam0") == 0) {
-    return geometry::BodyPoseFromSensorPose(T_world_child, T_body_cam0);
+    return std::optional<geometry::SE3>(
+        geometry::BodyPoseFromSensorPose(T_world_child, T_body_cam0));
   }
-  return T_world_child;
+  return std::optional<geometry::SE3>(T_world_child);
 }
 
 // ---- DdsIo --------------------------------------------------------------------------------------
@@ -84,7 +78,8 @@ Status DdsIo::SetInput(bool enabled, PoseSource source) {
   StopReaderLocked();
   if (!enabled) {
     MAV_LOG(kInfo) << "DDS input off (" << frames_received_.load() << " frames, "
-                   << poses_received_.load() << " poses received)";
+                   << poses_received_.load() << " poses received, " << poses_rejected_.load()
+                   << " rejected)";
     return Status::Ok();
   }
   using transport::Qos;
@@ -107,7 +102,12 @@ Status DdsIo::SetInput(bool enabled, PoseSource source) {
         &*ground_truth_reader_,
         [this](const mav_dds_GroundTruthState& state) {
           ++poses_received_;
-          mapper_->SubmitPose(state.t_ns, PoseFromDds(state));
+          Result<geometry::SE3> T_world_body = PoseFromDds(state);
+          if (!T_world_body.ok()) {
+            RejectPose(T_world_body.status());
+            return;
+          }
+          mapper_->SubmitPose(state.t_ns, *T_world_body);
         },
         kPoseBatch);
   }
@@ -120,8 +120,11 @@ Status DdsIo::SetInput(bool enabled, PoseSource source) {
         [this, T_body_cam0](const mav_dds_PoseWithCovariance& pose) {
           ++poses_received_;
           // A LOST pose is the last good one held, not the pose at its t_ns: ignored.
-          if (std::optional<geometry::SE3> T_world_body = BodyPoseFromDds(pose, T_body_cam0)) {
-            mapper_->SubmitPose(pose.t_ns, *T_world_body);
+          Result<std::optional<geometry::SE3>> T_world_body = BodyPoseFromDds(pose, T_body_cam0);
+          if (!T_world_body.ok()) {
+            RejectPose(T_world_body.status());
+          } else if (T_world_body->has_value()) {
+            mapper_->SubmitPose(pose.t_ns, **T_world_body);
           }
         },
         kPoseBatch);
@@ -133,6 +136,14 @@ Status DdsIo::SetInput(bool enabled, PoseSource source) {
   MAV_LOG(kInfo) << "DDS input on: " << transport::kStereoTopic << " + poses from "
                  << PoseSourceName(source);
   return Status::Ok();
+}
+
+void DdsIo::RejectPose(const Status& why) {
+  const uint64_t n = ++poses_rejected_;
+  // The first and then every 100th: a publisher with a bug sends hundreds a second.
+  if (n == 1 || n % 100 == 0) {
+    MAV_LOG(kWarning) << "pose rejected (" << n << " so far): " << why.message();
+  }
 }
 
 void DdsIo::OnFrame(const mav_dds_StereoFrame& frame) {

@@ -29,13 +29,13 @@
 
 namespace mav::mapping_service {
 
-// The pose of the samples (T_world_body; T_world_<child_frame_id> for a localization pose).
-geometry::SE3 PoseFromDds(const mav_dds_GroundTruthState& state);
-geometry::SE3 PoseFromDds(const mav_dds_PoseWithCovariance& pose);
+// The ground truth's T_world_body; InvalidArgument as service_common::PoseFromDds says (a
+// position not finite, a quaternion not unit).
+Result<geometry::SE3> PoseFromDds(const mav_dds_GroundTruthState& state);
 // A localization pose as T_world_body (a cam0 pose through T_body_cam0); nullopt for a pose
-// whose tracking state is not OK/INITIALIZING.
-std::optional<geometry::SE3> BodyPoseFromDds(const mav_dds_PoseWithCovariance& pose,
-                                             const geometry::SE3& T_body_cam0);
+// whose tracking state is not OK/INITIALIZING; InvalidArgument as above.
+Result<std::optional<geometry::SE3>> BodyPoseFromDds(const mav_dds_PoseWithCovariance& pose,
+                                                     const geometry::SE3& T_body_cam0);
 
 // Switches the live input on and off (DDS in production; absent in contract tests).
 class InputControl {
@@ -60,6 +60,7 @@ class DdsIo : public InputControl {
 
   uint64_t frames_received() const { return frames_received_.load(); }
   uint64_t poses_received() const { return poses_received_.load(); }
+  uint64_t poses_rejected() const { return poses_rejected_.load(); }
 
  private:
   using StereoTopic = transport::Topic<mav_dds_StereoFrame>;
@@ -68,6 +69,8 @@ class DdsIo : public InputControl {
   DdsIo(transport::Participant participant, StereoTopic stereo_topic,
         GroundTruthTopic ground_truth_topic, PoseTopic pose_topic);
   void OnFrame(const mav_dds_StereoFrame& frame);
+  // Counts a pose sample that fails the codec's checks and logs the first and every 100th.
+  void RejectPose(const Status& why);
   void StopReaderLocked();
 
   Mapper* mapper_ = nullptr;
@@ -85,6 +88,7 @@ class DdsIo : public InputControl {
 
   std::atomic<uint64_t> frames_received_{0};
   std::atomic<uint64_t> poses_received_{0};
+  std::atomic<uint64_t> poses_rejected_{0};
 };
 
 }  // namespace mav::mapping_service

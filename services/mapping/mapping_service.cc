@@ -203,24 +203,14 @@ grpc::Status MappingService::ExportMesh(grpc::ServerContext* context,
                                         grpc::ServerWriter<v1::FileChunk>* writer) {
   Result<uint32_t> chunk_bytes = ChunkSize(request->chunk_size());
   if (!chunk_bytes.ok()) return ToGrpcStatus(chunk_bytes.status());
-  mapping::PlyEncoding encoding = mapping::PlyEncoding::kBinaryLittleEndian;
-  switch (request->format()) {
-    case v1::MESH_FORMAT_UNSPECIFIED:
-    case v1::MESH_FORMAT_PLY_BINARY:
-      break;
-    case v1::MESH_FORMAT_PLY_ASCII:
-      encoding = mapping::PlyEncoding::kAscii;
-      break;
-    default:
-      return ToGrpcStatus(Status::InvalidArgument(
-          "format: unknown value " + std::to_string(static_cast<int>(request->format()))));
-  }
+  Result<mapping::PlyEncoding> encoding = kMeshFormatCodec.FromProto(request->format(), "format");
+  if (!encoding.ok()) return ToGrpcStatus(encoding.status());
   std::shared_ptr<const BuiltMap> map = mapper_->Map(MappingMethod::kSparseMesh);
   if (map == nullptr) {
     return ToGrpcStatus(Status::NotFound(
         "no sparse-mesh map has been built: call BuildMap with SPARSE_MESH first"));
   }
-  const std::string bytes = mapping::EncodePly(map->mesh, encoding);
+  const std::string bytes = mapping::EncodePly(map->mesh, *encoding);
   return StreamChunks(context, bytes, *chunk_bytes,
                       [&](v1::FileChunk&& chunk, bool) { return writer->Write(chunk); });
 }

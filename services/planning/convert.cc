@@ -42,11 +42,6 @@ void BoxToProto(const planning::Box& box, v1::Box* out) {
   ToProto(box.max, out->mutable_max());
 }
 
-v1::DistanceMethod ToProto(planning::DistanceMethod method) {
-  return method == planning::DistanceMethod::kDynamicEdt3d ? v1::DISTANCE_METHOD_DYNAMIC_EDT3D
-                                                           : v1::DISTANCE_METHOD_EXACT;
-}
-
 v1::PlanStatus ToProto(planning::PlanStatus status) {
   switch (status) {
     case planning::PlanStatus::kSuccess:
@@ -83,69 +78,12 @@ void ToProto(const planning::PlanTimings& t, v1::PlanTimings* out) {
   out->set_total_ms(t.total_ms);
 }
 
-Result<geometry::YawPolicy> YawPolicyFromProto(v1::YawPolicy policy, const std::string& field) {
-  switch (policy) {
-    case v1::YAW_POLICY_UNSPECIFIED:
-    case v1::YAW_POLICY_CONSTANT:
-      return geometry::YawPolicy::kConstant;
-    case v1::YAW_POLICY_ALONG_PATH:
-      return geometry::YawPolicy::kAlongPath;
-    case v1::YAW_POLICY_SEGMENT:
-      return geometry::YawPolicy::kSegment;
-    default:
-      break;
-  }
-  return Status::InvalidArgument(field + ": unknown value " +
-                                 std::to_string(static_cast<int>(policy)) +
-                                 " (known: CONSTANT=1, ALONG_PATH=2, SEGMENT=3)");
-}
-
-v1::YawPolicy ToProto(geometry::YawPolicy policy) {
-  switch (policy) {
-    case geometry::YawPolicy::kConstant:
-      return v1::YAW_POLICY_CONSTANT;
-    case geometry::YawPolicy::kAlongPath:
-      return v1::YAW_POLICY_ALONG_PATH;
-    case geometry::YawPolicy::kSegment:
-      return v1::YAW_POLICY_SEGMENT;
-  }
-  return v1::YAW_POLICY_UNSPECIFIED;
-}
-
-// Coefficients of one axis: exactly 6, finite.
-Status Coefficients(const google::protobuf::RepeatedField<double>& c, const std::string& field,
-                    geometry::Vector6d* out) {
-  if (c.size() != 6) {
-    return Status::InvalidArgument(field + ": " + std::to_string(c.size()) +
-                                   " coefficients, expected 6 (a quintic, ascending powers)");
-  }
-  for (int k = 0; k < 6; ++k) {
-    if (!std::isfinite(c[k])) {
-      return Status::InvalidArgument(field + "[" + std::to_string(k) + "]: not finite");
-    }
-    (*out)[k] = c[k];
-  }
-  return Status::Ok();
-}
-
 }  // namespace
 
 Result<Eigen::Vector3d> PointFromProto(const v1::Vector3& point, const std::string& field,
                                        bool set) {
   if (!set) return Status::InvalidArgument(field + ": not set");
-  const Eigen::Vector3d p(point.x(), point.y(), point.z());
-  for (int a = 0; a < 3; ++a) {
-    if (!std::isfinite(p[a])) {
-      return Status::InvalidArgument(field + "." + "xyz"[a] + ": not finite");
-    }
-  }
-  return p;
-}
-
-void ToProto(const Eigen::Vector3d& point, v1::Vector3* out) {
-  out->set_x(point.x());
-  out->set_y(point.y());
-  out->set_z(point.z());
+  return service_common::VectorFromProto(point, field);
 }
 
 Result<planning::MapOptions> MapOptionsFromProto(const v1::MapOptions& proto,
@@ -165,26 +103,17 @@ Result<planning::MapOptions> MapOptionsFromProto(const v1::MapOptions& proto,
   options.unknown_space =
       proto.unknown_is_free() ? planning::UnknownSpace::kFree : planning::UnknownSpace::kObstacle;
   if (proto.has_bounds()) {
-    planning::Box box;
-    MAV_ASSIGN_OR_RETURN(box.min, PointFromProto(proto.bounds().min(), field + ".bounds.min"));
-    MAV_ASSIGN_OR_RETURN(box.max, PointFromProto(proto.bounds().max(), field + ".bounds.max"));
+    // The shared rules first (finite, ordered corners), then the planner's own: a volume.
+    MAV_ASSIGN_OR_RETURN(const Eigen::AlignedBox3d bounds,
+                         service_common::BoxFromProto(proto.bounds(), field + ".bounds"));
+    planning::Box box{bounds.min(), bounds.max()};
     std::string why;
     if (!box.IsValid(field + ".bounds", &why)) return Status::InvalidArgument(why);
     options.planning_bounds = box;
   }
-  switch (proto.distance_method()) {
-    case v1::DISTANCE_METHOD_UNSPECIFIED:
-    case v1::DISTANCE_METHOD_EXACT:
-      options.distance_method = planning::DistanceMethod::kExact;
-      break;
-    case v1::DISTANCE_METHOD_DYNAMIC_EDT3D:
-      options.distance_method = planning::DistanceMethod::kDynamicEdt3d;
-      break;
-    default:
-      return Status::InvalidArgument(field + ".distance_method: unknown value " +
-                                     std::to_string(static_cast<int>(proto.distance_method())) +
-                                     " (known: EXACT=1, DYNAMIC_EDT3D=2)");
-  }
+  MAV_ASSIGN_OR_RETURN(
+      options.distance_method,
+      kDistanceMethodCodec.FromProto(proto.distance_method(), field + ".distance_method"));
   return options;
 }
 
@@ -202,7 +131,7 @@ void ToProto(const planning::MapInfo& info, const planning::MapOptions& options,
   out->set_fingerprint(info.fingerprint);
   out->set_octree_leaves(info.octree_leaves);
   out->set_robot_radius_m(options.robot_radius_m);
-  out->set_distance_method(ToProto(options.distance_method));
+  out->set_distance_method(kDistanceMethodCodec.ToProto(options.distance_method));
 }
 
 Result<planning::RoadmapOptions> RoadmapOptionsFromProto(const v1::BuildRoadmapRequest& request) {
@@ -298,7 +227,8 @@ Result<planning::PlanRequest> PlanRequestFromProto(const v1::PlanPathRequest& r)
   if (r.sample_dt_s() != 0) {
     MAV_RETURN_IF_ERROR(InRange(r.sample_dt_s(), 0.001, 10, "sample_dt_s", "s (0 = no samples)"));
   }
-  MAV_ASSIGN_OR_RETURN(request.yaw_policy, YawPolicyFromProto(r.yaw_policy(), "yaw_policy"));
+  MAV_ASSIGN_OR_RETURN(request.yaw_policy,
+                       service_common::kYawPolicyCodec.FromProto(r.yaw_policy(), "yaw_policy"));
   if (request.yaw_policy == geometry::YawPolicy::kSegment) {
     return Status::InvalidArgument(
         "yaw_policy: SEGMENT needs yaw polynomials per segment, which the planner does not plan "
@@ -335,55 +265,6 @@ void ToProto(const PlanOutcome& outcome, v1::PlanPathResponse* out) {
   out->set_trajectory_refits(r.trajectory_refits);
   out->set_map_fingerprint(outcome.map_fingerprint);
   out->set_used_roadmap(outcome.used_roadmap);
-}
-
-void ToProto(const geometry::PolynomialTrajectory& trajectory, v1::PolynomialTrajectory* out) {
-  for (const geometry::PolynomialSegment& s : trajectory.segments()) {
-    v1::PolynomialSegment* segment = out->add_segments();
-    segment->set_duration_s(s.duration_s);
-    for (int k = 0; k < 6; ++k) {
-      segment->add_x(s.coefficients(0, k));
-      segment->add_y(s.coefficients(1, k));
-      segment->add_z(s.coefficients(2, k));
-      if (s.yaw.has_value()) segment->add_yaw((*s.yaw)[k]);
-    }
-  }
-  out->set_yaw_policy(ToProto(trajectory.yaw_policy()));
-  out->set_start_yaw_rad(trajectory.start_yaw_rad());
-  out->set_duration_s(trajectory.duration_s());
-}
-
-Result<geometry::PolynomialTrajectory> TrajectoryFromProto(const v1::PolynomialTrajectory& proto,
-                                                           const std::string& field) {
-  if (proto.segments_size() == 0) return Status::InvalidArgument(field + ".segments: empty");
-  std::vector<geometry::PolynomialSegment> segments(proto.segments_size());
-  for (int i = 0; i < proto.segments_size(); ++i) {
-    const v1::PolynomialSegment& p = proto.segments(i);
-    const std::string name = field + ".segments[" + std::to_string(i) + "]";
-    geometry::PolynomialSegment& s = segments[i];
-    s.duration_s = p.duration_s();
-    const std::pair<const google::protobuf::RepeatedField<double>*, const char*> axes[] = {
-        {&p.x(), ".x"}, {&p.y(), ".y"}, {&p.z(), ".z"}};
-    for (int a = 0; a < 3; ++a) {
-      geometry::Vector6d c;
-      MAV_RETURN_IF_ERROR(Coefficients(*axes[a].first, name + axes[a].second, &c));
-      s.coefficients.row(a) = c.transpose();
-    }
-    if (p.yaw_size() != 0) {
-      geometry::Vector6d c;
-      MAV_RETURN_IF_ERROR(Coefficients(p.yaw(), name + ".yaw", &c));
-      s.yaw = c;
-    }
-  }
-  MAV_ASSIGN_OR_RETURN(const geometry::YawPolicy policy,
-                       YawPolicyFromProto(proto.yaw_policy(), field + ".yaw_policy"));
-  Result<geometry::PolynomialTrajectory> trajectory =
-      geometry::PolynomialTrajectory::Create(std::move(segments), policy, proto.start_yaw_rad());
-  // The library names the field from "segments[i]..." on.
-  if (!trajectory.ok()) {
-    return Status::InvalidArgument(field + "." + trajectory.status().message());
-  }
-  return trajectory;
 }
 
 void ToProto(const geometry::TrajectoryPoint& point, v1::TrajectorySample* out) {

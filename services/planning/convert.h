@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include "mav/v1/common.pb.h"
+#include "mav/v1/mapping.pb.h"  // the map a planning service fetches from mapping
 #include "mav/v1/planning.pb.h"
 
 #include "mav/common/status.h"
@@ -18,6 +19,7 @@
 #include "mav/planning/planner.h"
 #include "mav/planning/planning_map.h"
 #include "mav/planning/roadmap.h"
+#include "services/common/proto_codec.h"
 #include "services/planning/planner_core.h"
 
 namespace mav::planning_service {
@@ -32,7 +34,9 @@ inline constexpr int kMaxWaypoints = 1000;
 // finite".
 Result<Eigen::Vector3d> PointFromProto(const v1::Vector3& point, const std::string& field,
                                        bool set = true);
-void ToProto(const Eigen::Vector3d& point, v1::Vector3* out);
+// The shared messages (vectors, trajectories) go through the one codec.
+using service_common::ToProto;
+using service_common::TrajectoryFromProto;
 
 // MapOptions with the proto's defaults; `field` prefixes messages ("options.robot_radius_m: ...").
 Result<planning::MapOptions> MapOptionsFromProto(const v1::MapOptions& options,
@@ -48,12 +52,6 @@ Result<planning::PlanRequest> PlanRequestFromProto(const v1::PlanPathRequest& re
 // The reply of a plan (no plan_id, no samples: the service sets them).
 void ToProto(const PlanOutcome& outcome, v1::PlanPathResponse* out);
 
-void ToProto(const geometry::PolynomialTrajectory& trajectory, v1::PolynomialTrajectory* out);
-// InvalidArgument naming "<field>.segments[i]...": no segments, a duration not positive and
-// finite, not 6 coefficients per axis, yaw coefficients neither 0 nor 6, non-finite values,
-// SEGMENT yaw without coefficients, an unknown yaw policy.
-Result<geometry::PolynomialTrajectory> TrajectoryFromProto(const v1::PolynomialTrajectory& proto,
-                                                           const std::string& field);
 void ToProto(const geometry::TrajectoryPoint& point, v1::TrajectorySample* out);
 
 // Appends samples every dt_s from 0 to the end (end included). RESOURCE_EXHAUSTED "<field>: N
@@ -63,5 +61,22 @@ Status AppendSamples(const geometry::PolynomialTrajectory& trajectory, double dt
                      google::protobuf::RepeatedPtrField<v1::TrajectorySample>* out);
 
 void ToProto(const CoreStatus& status, v1::PlanningStatus* out);
+
+// The enums of planning.proto (tests/contract/shared_messages_test.cc checks each table).
+// UNSPECIFIED means EXACT.
+inline constexpr auto kDistanceMethodCodec =
+    service_common::MakeEnumCodec<v1::DistanceMethod, planning::DistanceMethod>(
+        v1::DistanceMethod_descriptor,
+        {{v1::DISTANCE_METHOD_EXACT, planning::DistanceMethod::kExact},
+         {v1::DISTANCE_METHOD_DYNAMIC_EDT3D, planning::DistanceMethod::kDynamicEdt3d}},
+        planning::DistanceMethod::kExact);
+
+// The map a planning service asks a mapping service for (UNSPECIFIED: the one it built last).
+inline constexpr auto kMappingMethodRefCodec =
+    service_common::MakeEnumCodec<v1::MappingMethodRef, v1::MappingMethod>(
+        v1::MappingMethodRef_descriptor,
+        {{v1::MAPPING_METHOD_REF_SPARSE_MESH, v1::MAPPING_METHOD_SPARSE_MESH},
+         {v1::MAPPING_METHOD_REF_OCTOMAP, v1::MAPPING_METHOD_OCTOMAP}},
+        v1::MAPPING_METHOD_UNSPECIFIED);
 
 }  // namespace mav::planning_service

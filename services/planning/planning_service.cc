@@ -87,21 +87,9 @@ Result<std::string> PlanningService::FetchFromMapping(const v1::MapFromMappingSe
                                                       const Termination& deadline) {
   const std::string what = "mapping@" + Echo(source.address()) + " GetOccupancy";
   v1::GetOccupancyRequest request;
-  switch (source.method()) {
-    case v1::MAPPING_METHOD_REF_UNSPECIFIED:
-      request.set_method(v1::MAPPING_METHOD_UNSPECIFIED);
-      break;
-    case v1::MAPPING_METHOD_REF_SPARSE_MESH:
-      request.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
-      break;
-    case v1::MAPPING_METHOD_REF_OCTOMAP:
-      request.set_method(v1::MAPPING_METHOD_OCTOMAP);
-      break;
-    default:
-      return Status::InvalidArgument("mapping.method: unknown value " +
-                                     std::to_string(static_cast<int>(source.method())) +
-                                     " (known: SPARSE_MESH=1, OCTOMAP=2)");
-  }
+  MAV_ASSIGN_OR_RETURN(const v1::MappingMethod method,
+                       kMappingMethodRefCodec.FromProto(source.method(), "mapping.method"));
+  request.set_method(method);
   request.set_format(v1::OCCUPANCY_FORMAT_OCTOMAP_BT);
   auto stub = v1::Mapping::NewStub(
       grpc::CreateChannel(source.address(), grpc::InsecureChannelCredentials()));

@@ -9,16 +9,6 @@ namespace mav::simulator_service {
 
 using service_common::Number;
 
-namespace {
-
-void ToProto(const Eigen::Vector3d& v, v1::Vector3* out) {
-  out->set_x(v.x());
-  out->set_y(v.y());
-  out->set_z(v.z());
-}
-
-}  // namespace
-
 Result<LoadRequest> FromProto(const v1::LoadScenarioRequest& request) {
   LoadRequest out;
   switch (request.source_case()) {

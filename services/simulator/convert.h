@@ -58,7 +58,7 @@ v1::FlightState ToProto(FlightState state);
 
 void ToProto(const ScenarioInfo& info, v1::ScenarioSummary* out);
 void ToProto(const PlayerStatus& status, v1::SimulatorStatus* out);
-using service_common::ToProto;  // geometry::SE3 -> v1::Pose, intrinsics, RuntimeStats
+using service_common::ToProto;  // vectors, poses, intrinsics, RuntimeStats
 void ToProto(const camera::StereoCalibration& calibration, double rate_hz, bool rectified,
              v1::StereoCalibration* out);
 void ToProto(const dataset::ImuNoise& noise, double rate_hz, v1::ImuNoise* out);

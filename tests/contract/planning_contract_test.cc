@@ -331,6 +331,8 @@ TEST_F(PlanningContractTest, LoadMapBadInputNamesTheField) {
   Set(r.mutable_options()->mutable_bounds()->mutable_max(), 5, 5, 5);
   ExpectError(LoadMap(r), StatusCode::INVALID_ARGUMENT, "options.bounds.min.x: not finite");
   Set(r.mutable_options()->mutable_bounds()->mutable_min(), 1, 6, 1);
+  ExpectError(LoadMap(r), StatusCode::INVALID_ARGUMENT, "options.bounds: min.y 6 > max.y 5");
+  Set(r.mutable_options()->mutable_bounds()->mutable_min(), 1, 5, 1);  // ordered, but flat
   ExpectError(LoadMap(r), StatusCode::INVALID_ARGUMENT, "options.bounds.max: must exceed");
   r.mutable_options()->clear_bounds();
   r.mutable_options()->set_distance_method(static_cast<v1::DistanceMethod>(9));
@@ -924,7 +926,7 @@ TEST_F(PlanningContractTest, SampleTrajectory) {
   ExpectError(Sample(given, &s2), StatusCode::INVALID_ARGUMENT,
               "trajectory.segments[2].duration_s: ");
   given.mutable_trajectory()->clear_segments();
-  ExpectError(Sample(given, &s2), StatusCode::INVALID_ARGUMENT, "trajectory.segments: empty");
+  ExpectError(Sample(given, &s2), StatusCode::INVALID_ARGUMENT, "trajectory.segments: no segments");
 }
 
 TEST_F(PlanningContractTest, SaveAndLoadRoadmap) {

@@ -99,8 +99,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     case 6: {
       v1::PolynomialTrajectory m;
       if (!Parse(data, size, &m)) return -1;
-      CheckTrajectory(planning_service::TrajectoryFromProto(m, "trajectory"));
-      CheckTrajectory(control_service::TrajectoryFromProto(m, "trajectory"));
+      // The one decoder mav-planning and mav-control share.
+      CheckTrajectory(service_common::TrajectoryFromProto(m, "trajectory"));
       break;
     }
     case 7: {

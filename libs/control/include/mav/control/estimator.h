@@ -63,7 +63,7 @@ struct EstimatorOptions {
   // IMU history kept for re-application; a pose older than this is dropped. Must exceed the
   // largest pose delay (the contest's: 100 ms).
   double buffer_s = 1.0;
-  // IMU noise per sample and the offsets' drift, as the contest's IMU (PAPER_RESULTS.md):
+  // IMU noise per sample and the offsets' drift, as the contest's IMU (docs/control.md, "The sensors"):
   // white noise 0.04 m/s^2 and 0.0033937 rad/s; the offsets drift about 0.09 m/s^2 and
   // 6e-4 rad/s (1 sigma) over 240 s, i.e. random walks of 0.09/sqrt(240) and 6e-4/sqrt(240).
   double accel_noise_sigma = 0.04;

@@ -73,7 +73,7 @@ struct FlightGoal {
   double yaw_rad = 0;
 };
 
-// How the contest's scripts score a task (PAPER_RESULTS.md, "Scoring").
+// How the contest's scripts score a task (docs/control.md, "Scoring").
 struct FlightScoring {
   double window_s = 10;           // RMS window length
   double hover_delay_s = 5;       // kHover: the window starts this long after the set point

@@ -1,5 +1,5 @@
 #pragma once
-// Mission files: what a mission flies (the mission library's input, shared/DESIGN.md "mission"):
+// Mission files: what a mission flies (the mission library's input, docs/mission.md):
 // a simulator world, a start on the ground, a take-off height, goals visited in order with a
 // hover at each, and whether to land at the end. YAML:
 //

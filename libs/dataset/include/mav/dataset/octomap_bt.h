@@ -35,7 +35,7 @@ namespace mav::dataset {
 
 struct OctomapReadLimits {
   // Most tree nodes accepted (inner nodes and leaves, as OcTree::size() counts them). OctoMap
-  // needs 44 bytes of heap per node for the EuRoC power plant (shared/data/power_plant.bt,
+  // needs 44 bytes of heap per node for the EuRoC power plant (maps/power_plant.bt,
   // 0.25 m: 377,475 nodes in 16.6 MB) and at most ~112 (a node, plus an 8-pointer child array
   // when it is an inner node), so the default means ~440 MB, at worst 1.1 GB. A service sets
   // its own limit.

@@ -1,6 +1,6 @@
 #pragma once
 // The EuRoC 2014 Challenge 3 scoring, as the contest's evaluation scripts compute it
-// (PAPER_RESULTS.md, "Scoring"), on a ground-truth trace of a flown task:
+// (docs/control.md, "Scoring"), on a ground-truth trace of a flown task:
 //  * position error = |p_truth - p_goal| (3-D), angular-rate error = |w_truth| (3-D, the goal
 //    is at rest); RMS over a window of scoring.window_s (10 s);
 //  * kHover (t3_1): the window starts scoring.hover_delay_s (5 s) after the set point is

@@ -65,7 +65,7 @@ const char* MappingMethodName(MappingMethod method);  // "sparse-mesh", "octomap
 MeshToGridOptions MeshToGridOptionsFor(MapPreference preference);
 bool KeepUncheckedPointsFor(MapPreference preference);
 
-// The occlusion check of far single-view points (docs/mapping.md, "Sixth pass"). A point seen
+// The occlusion check of far single-view points (docs/mapping.md, "Occlusion check of far single-view points"). A point seen
 // by one keyframe only, from farther than `min_range_m`, has a depth too uncertain to trust on its
 // own (stereo depth noise grows as Z^2: a quarter pixel of disparity is ~3 cm at 2.5 m and ~12 cm
 // at 5 m on EuRoC's rig, against the mesher's 5 cm sink distance). Build() then meshes in two
@@ -105,7 +105,7 @@ struct MappingPipelineOptions {
   // MCC from 0.73 to 0.76 (docs/mapping.md, "Pipeline").
   // carve_radius_voxels = 1: thick lines of sight free the small untraversed outside cells just
   // in front of the surfaces (full presets: room-easy 0.783 -> 0.805, medium 0.716 -> 0.745, hard
-  // 0.619 -> 0.684 MCC; docs/mapping.md, "Fourth pass").
+  // 0.619 -> 0.684 MCC; docs/results/mapping-history.md, "Fourth pass").
   MeshToGridOptions mesh_to_grid = MeshToGridOptionsFor(MapPreference::kSafety);
   OcclusionCheckOptions occlusion_check = OcclusionCheckFor(MapPreference::kSafety);
   OctomapMapperOptions octomap;

@@ -1,6 +1,6 @@
 #pragma once
-// The EuRoC 2014 Challenge 3 simulation tasks as data (PAPER_RESULTS.md, "The contest's
-// simulation tasks"; the task types are in mav/dataset/flight_task.h, every figure overridable
+// The EuRoC 2014 Challenge 3 simulation tasks as data (docs/control.md, "The
+// tasks"; the task types are in mav/dataset/flight_task.h, every figure overridable
 // from a task file, mav/dataset/flight_task_io.h):
 //   t3_1  hover at (0, 0, 1); the set point is published at 10 s, scored 15-25 s.
 //   t3_2  t3_1 + a constant 2 N along normalise(1, 1, -0.3) from 40 s (to 240 s).

@@ -190,7 +190,7 @@ int Configure(const std::vector<std::string>& args) {
       controller == "lee" ? control::ControllerType::kLee : control::ControllerType::kPaper;
   v1::ControlConfigureRequest request;
   if (!task.empty()) {
-    Result<dataset::FlightTask> spec = control_service::FlightTaskFromSpec(task, plant_map);
+    Result<dataset::FlightTask> spec = sim::FlightTaskFromSpec(task, plant_map);
     if (!spec.ok()) return Usage("--task: " + spec.status().message());
     control_service::ToProto(control_service::ConfigForFlightTask(*spec, type, lockstep), &request);
   } else {

@@ -144,15 +144,6 @@ Status OutgoingCallStatus(const grpc::Status& status, const std::string& what,
   }
 }
 
-Termination CallTermination(const grpc::ServerContext& context) {
-  const auto deadline = context.deadline();
-  if (deadline == std::chrono::system_clock::time_point::max()) return Termination::Never();
-  const auto left = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                        deadline - std::chrono::system_clock::now())
-                        .count();
-  return Termination::AtMonotonicNs(MonotonicNowNs() + left);
-}
-
 Status CheckDeadline(const grpc::ServerContext& context, std::string_view what) {
   const auto deadline = context.deadline();
   if (deadline != std::chrono::system_clock::time_point::max() &&

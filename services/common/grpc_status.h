@@ -40,8 +40,6 @@ const char* GrpcCodeName(grpc::StatusCode code);
 Status OutgoingCallStatus(const grpc::Status& status, const std::string& what,
                           const std::string& expected);
 
-// The client's deadline as a Termination (Never when the client set none).
-Termination CallTermination(const grpc::ServerContext& context);
 // OK, or DEADLINE_EXCEEDED "<what>: the client's deadline passed before the call was handled":
 // every handler that changes state checks it first, so a late retry changes nothing.
 Status CheckDeadline(const grpc::ServerContext& context, std::string_view what);

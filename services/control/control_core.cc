@@ -17,47 +17,6 @@ constexpr int64_t kRateStaleNs = 2'000'000'000;
 
 }  // namespace
 
-bool ControlConfig::IsValid(std::string* why) const {
-  auto fail = [&](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (pose_frames.size() != autopilot.estimator.sources.size()) {
-    return fail("estimator.pose_sources: " + std::to_string(pose_frames.size()) +
-                " frame names for " + std::to_string(autopilot.estimator.sources.size()) +
-                " sources");
-  }
-  for (size_t i = 0; i < pose_frames.size(); ++i) {
-    const std::string field = "estimator.pose_sources[" + std::to_string(i) + "].frame_id";
-    if (pose_frames[i].empty()) return fail(field + ": empty");
-    if (pose_frames[i].size() > 32) return fail(field + ": longer than 32 characters (the IDL's)");
-    for (size_t j = 0; j < i; ++j) {
-      if (pose_frames[j] == pose_frames[i]) {
-        return fail(field + ": " + QuoteForError(pose_frames[i]) + " is pose_sources[" +
-                    std::to_string(j) + "]'s too");
-      }
-    }
-  }
-  if (!lockstep_poses.empty() && lockstep_poses.size() != pose_frames.size()) {
-    return fail("estimator.pose_sources: " + std::to_string(lockstep_poses.size()) +
-                " lock-step settings for " + std::to_string(pose_frames.size()) + " sources");
-  }
-  for (size_t i = 0; i < lockstep_poses.size(); ++i) {
-    const std::string field = "estimator.pose_sources[" + std::to_string(i) + "].lockstep_";
-    const LockstepPoseOptions& l = lockstep_poses[i];
-    if (l.latency_s == 0) continue;
-    if (!(l.latency_s >= 0.001 && l.latency_s <= 1)) {
-      return fail(field + "latency_s: must be 0 (off) or in [0.001, 1] s, got " +
-                  std::to_string(l.latency_s));
-    }
-    if (!(l.wait_s > 0 && l.wait_s <= 60)) {
-      return fail(field + "wait_s: must be in (0, 60] s, got " + std::to_string(l.wait_s));
-    }
-    if (!lockstep) return fail(field + "latency_s: needs lockstep (a lock-stepped simulator)");
-  }
-  return autopilot.IsValid(why);
-}
-
 void ControlCore::RateMeter::Add(int64_t now_ns) {
   if (count == 0 && window_start_ns == 0) window_start_ns = now_ns;
   ++count;

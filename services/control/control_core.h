@@ -51,29 +51,9 @@
 #include "mav/control/autopilot.h"
 #include "mav/geometry/polynomial_trajectory.h"
 #include "mav/geometry/se3.h"
+#include "services/control/control_config.h"
 
 namespace mav::control_service {
-
-// A pose source that answers every camera frame of a lock-stepped simulation
-// (ControlPoseSource.lockstep_latency_s).
-struct LockstepPoseOptions {
-  double latency_s = 0;  // 0: not lock-stepped (poses merged as they arrive); else [0.001, 1]
-  double wait_s = 2.0;   // wall clock per IMU sample, (0, 60]
-};
-
-struct ControlConfig {
-  control::AutopilotOptions autopilot;
-  // The child_frame_id of each pose source's poses (parallel to autopilot.estimator.sources):
-  // non-empty and distinct; "pose_sensor<i>" for the simulator's flight mode.
-  std::vector<std::string> pose_frames = {"pose_sensor0"};
-  // Parallel to pose_frames; empty = none lock-stepped. Needs `lockstep`.
-  std::vector<LockstepPoseOptions> lockstep_poses;
-  // The IMU's clock is a lock-stepped simulator's: no wall-clock IMU watchdog.
-  bool lockstep = false;
-
-  // Names the field as control.proto spells it where the service's checks do (pose_frames).
-  bool IsValid(std::string* why) const;
-};
 
 // One actuator command for the data plane.
 struct ActuatorOutput {

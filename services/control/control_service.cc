@@ -12,13 +12,14 @@
 #include "mav/common/log.h"
 #include "mav/common/text.h"
 #include "mav/common/time.h"
+#include "services/common/call_watch.h"
 #include "services/common/grpc_status.h"
 
 namespace mav::control_service {
 
 namespace {
 
-using service_common::CallTermination;
+using service_common::CallWatch;
 using service_common::CheckDeadline;
 using service_common::OutgoingCallStatus;
 using service_common::ToGrpcStatus;
@@ -101,7 +102,7 @@ grpc::Status ControlService::Configure(grpc::ServerContext* context,
                                        const v1::ControlConfigureRequest* request,
                                        v1::ControlStatus* response) {
   if (Status s = CheckDeadline(*context, "Configure"); !s.ok()) return ToGrpcStatus(s);
-  return ApplyConfigure(*request, CallTermination(*context), response);
+  return ApplyConfigure(*request, CallWatch(context).termination(), response);
 }
 
 grpc::Status ControlService::Arm(grpc::ServerContext* context, const v1::ArmRequest*,
@@ -169,8 +170,8 @@ grpc::Status ControlService::SetTrajectory(grpc::ServerContext* context,
         // Fail before a network call that could not be used anyway.
         return ToGrpcStatus(Status::FailedPrecondition("not configured: call Configure first"));
       }
-      trajectory =
-          FetchPlan(request->plan(), CallTermination(*context), options_.planning_timeout_ms);
+      trajectory = FetchPlan(request->plan(), CallWatch(context).termination(),
+                             options_.planning_timeout_ms);
       break;
     case v1::SetTrajectoryRequest::SOURCE_NOT_SET:
       trajectory = Status::InvalidArgument("trajectory: set trajectory or plan");

@@ -5,9 +5,6 @@
 #include <vector>
 
 #include "mav/common/time.h"
-#include "mav/dataset/flight_task_io.h"
-#include "mav/eval/flight_mission.h"
-#include "mav/sim/flight_task.h"
 
 namespace mav::control_service {
 
@@ -379,29 +376,6 @@ void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out) {
   out->set_correction_blend_s(o.correction_blend_s);
   out->set_min_rotor_speed_radps(o.allocation.min_rotor_speed_radps);
   out->set_lockstep(config.lockstep);
-}
-
-ControlConfig ConfigForFlightTask(const dataset::FlightTask& task,
-                                  control::ControllerType controller, bool lockstep) {
-  ControlConfig config;
-  config.autopilot = eval::AutopilotOptionsForTask(task, controller);
-  config.pose_frames.clear();
-  for (size_t i = 0; i < config.autopilot.estimator.sources.size(); ++i) {
-    config.pose_frames.push_back("pose_sensor" + std::to_string(i));
-  }
-  config.lockstep = lockstep;
-  return config;
-}
-
-Result<dataset::FlightTask> FlightTaskFromSpec(const std::string& name_or_file,
-                                               const std::string& plant_map_path) {
-  const dataset::FlightTaskResolver resolve = [plant_map_path](const std::string& name) {
-    return sim::BuiltinFlightTask(name, plant_map_path);
-  };
-  const bool is_file =
-      name_or_file.size() > 5 && name_or_file.compare(name_or_file.size() - 5, 5, ".yaml") == 0;
-  if (is_file) return dataset::ReadFlightTaskFile(name_or_file, resolve, "t3_1");
-  return resolve(name_or_file);
 }
 
 v1::ControlMode ToProto(control::FlightMode mode) {

@@ -28,16 +28,6 @@ Result<ControlConfig> ConfigFromProto(const v1::ControlConfigureRequest& request
 // The effective configuration (every default filled in).
 void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out);
 
-// What the contest told the teams about a flight task (eval::AutopilotOptionsForTask: the
-// controllers' Firefly, the sensors' nominal rates, noise and mountings), with the simulator's
-// pose frames "pose_sensor<i>": the configuration mav-eval flies the task with.
-ControlConfig ConfigForFlightTask(const dataset::FlightTask& task,
-                                  control::ControllerType controller, bool lockstep);
-// A built-in task name (t3_1 ... t4_3) or a task file (*.yaml, over t3_1 unless it names its
-// base). NotFound / InvalidArgument naming the task or the file's key.
-Result<dataset::FlightTask> FlightTaskFromSpec(const std::string& name_or_file,
-                                               const std::string& plant_map_path);
-
 // `field` prefixes the messages ("gains", "lee_gains", "limits"); 0 components = defaults.
 Result<control::PaperControllerGains> PaperGainsFromProto(const v1::ControllerGains& gains,
                                                           const std::string& field);

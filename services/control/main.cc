@@ -51,7 +51,7 @@ int main(int argc, char** argv) {
   mav::control_service::ControlService service(&core, dds->get(), options);
 
   if (!task.empty()) {
-    auto spec = mav::control_service::FlightTaskFromSpec(task, plant_map);
+    auto spec = mav::sim::FlightTaskFromSpec(task, plant_map);
     if (!spec.ok()) return runner.Fail(spec.status().WithContext("--task"));
     mav::v1::ControlConfigureRequest request;
     mav::control_service::ToProto(mav::control_service::ConfigForFlightTask(

@@ -12,13 +12,14 @@
 #include "mav/common/log.h"
 #include "mav/dataset/euroc.h"
 #include "mav/transport/grpc_server.h"
+#include "services/common/call_watch.h"
 #include "services/common/grpc_status.h"
 
 namespace mav::localization_service {
 
 namespace {
 
-using service_common::CallTermination;
+using service_common::CallWatch;
 using service_common::CheckDeadline;
 using service_common::ToGrpcStatus;
 
@@ -70,7 +71,7 @@ grpc::Status LocalizationService::Configure(grpc::ServerContext* context,
                                             const v1::LocalizationConfigureRequest* request,
                                             v1::LocalizationStatus* response) {
   if (Status s = CheckDeadline(*context, "Configure"); !s.ok()) return ToGrpcStatus(s);
-  return ApplyConfigure(*request, CallTermination(*context), response);
+  return ApplyConfigure(*request, CallWatch(context).termination(), response);
 }
 
 grpc::Status LocalizationService::Reset(grpc::ServerContext* context,
@@ -84,7 +85,7 @@ grpc::Status LocalizationService::Reset(grpc::ServerContext* context,
   }
   if (Status s = CheckDeadline(*context, "Reset"); !s.ok()) return ToGrpcStatus(s);
   if (localizer_->configured()) {
-    if (Status s = localizer_->Reset(initial, CallTermination(*context)); !s.ok()) {
+    if (Status s = localizer_->Reset(initial, CallWatch(context).termination()); !s.ok()) {
       return ToGrpcStatus(s);
     }
   }
@@ -145,7 +146,8 @@ grpc::Status LocalizationService::ProcessStereoPair(grpc::ServerContext* context
   StereoInput input(std::move(*pair));
   input.publish = !request->skip_publish();
   // The client's deadline, or process_timeout_ms when it set none.
-  const Termination deadline = CallTermination(*context).WithDeadlineNs(
+  const CallWatch call(context);
+  const Termination deadline = call.termination().WithDeadlineNs(
       Termination::AfterMs(static_cast<double>(options_.process_timeout_ms)).deadline_ns());
   Result<RigPose> result = localizer_->Process(std::move(input), deadline);
   if (!result.ok()) return ToGrpcStatus(result.status());

@@ -16,6 +16,7 @@
 #include "mav/dataset/occupancy_io.h"
 #include "mav/mapping/mesh.h"
 #include "mav/transport/grpc_server.h"
+#include "services/common/call_watch.h"
 #include "services/common/file_stream.h"
 #include "services/common/grpc_status.h"
 
@@ -23,7 +24,7 @@ namespace mav::mapping_service {
 
 namespace {
 
-using service_common::CallTermination;
+using service_common::CallWatch;
 using service_common::CheckDeadline;
 using service_common::ChunkSize;
 using service_common::OccupancyFormatFromProto;
@@ -93,13 +94,13 @@ grpc::Status MappingService::StartSession(grpc::ServerContext* context,
                                           const v1::StartSessionRequest* request,
                                           v1::MappingStatus* response) {
   if (Status s = CheckDeadline(*context, "StartSession"); !s.ok()) return ToGrpcStatus(s);
-  return ApplyStartSession(*request, CallTermination(*context), response);
+  return ApplyStartSession(*request, CallWatch(context).termination(), response);
 }
 
 grpc::Status MappingService::Reset(grpc::ServerContext* context, const v1::MappingResetRequest*,
                                    v1::MappingStatus* response) {
   if (Status s = CheckDeadline(*context, "Reset"); !s.ok()) return ToGrpcStatus(s);
-  const Status reset = mapper_->Reset(CallTermination(*context));
+  const Status reset = mapper_->Reset(CallWatch(context).termination());
   if (!reset.ok()) return ToGrpcStatus(reset);
   ToProto(mapper_->GetStatus(), response);
   return grpc::Status::OK;
@@ -126,9 +127,10 @@ grpc::Status MappingService::InsertKeyframe(grpc::ServerContext* context,
   Result<geometry::SE3> pose = PoseFromProto(request->t_world_body(), "t_world_body");
   if (!pose.ok()) return ToGrpcStatus(pose.status());
   if (Status s = CheckDeadline(*context, "InsertKeyframe"); !s.ok()) return ToGrpcStatus(s);
+  const CallWatch call(context);
   Result<KeyframeResult> result = mapper_->InsertKeyframe(
       std::move(*frame), *pose, request->force(),
-      CallTermination(*context).WithDeadlineNs(Termination::AfterMs(kDefaultWaitMs).deadline_ns()));
+      call.termination().WithDeadlineNs(Termination::AfterMs(kDefaultWaitMs).deadline_ns()));
   if (!result.ok()) return ToGrpcStatus(result.status());
   ToProto(*result, response);
   return grpc::Status::OK;
@@ -140,7 +142,7 @@ grpc::Status MappingService::BuildMap(grpc::ServerContext* context,
   Result<BuildRequest> build = BuildFromProto(*request);
   if (!build.ok()) return ToGrpcStatus(build.status());
   if (Status s = CheckDeadline(*context, "BuildMap"); !s.ok()) return ToGrpcStatus(s);
-  Result<MapStats> stats = mapper_->Build(*build, CallTermination(*context));
+  Result<MapStats> stats = mapper_->Build(*build, CallWatch(context).termination());
   if (!stats.ok()) return ToGrpcStatus(stats.status());
   ToProto(*stats, response);
   return grpc::Status::OK;

@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <string_view>
 #include <thread>
 #include <utility>
@@ -17,49 +16,12 @@ namespace mav::planning_service {
 namespace {
 
 constexpr size_t kStatsWindow = 1000;
-// The first bytes of every roadmap file (docs/planning.md, "Roadmap file").
-constexpr std::string_view kRoadmapMagic("MAVPRM\n\x1a", 8);
 
 bool EndsWith(const std::string& s, std::string_view suffix) {
   return s.size() >= suffix.size() &&
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-// Whether the file at `path` starts like a roadmap file.
-bool LooksLikeRoadmapFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string head(kRoadmapMagic.size(), '\0');
-  in.read(head.data(), static_cast<std::streamsize>(head.size()));
-  return in.gcount() == static_cast<std::streamsize>(head.size()) && head == kRoadmapMagic;
-}
-
-// Raises `flag` once `gone()` turns true, polling every 20 ms, until destroyed (joined). One
-// per long operation or fresh-PRM* plan, so the client's cancellation stops the work.
-class GoneWatcher {
- public:
-  GoneWatcher(const std::function<bool()>& gone, const CancelFlag& flag) {
-    if (!gone) return;
-    thread_ = std::thread([this, gone, flag] {
-      while (!done_.load()) {
-        if (gone()) {
-          flag.Cancel();
-          return;
-        }
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      }
-    });
-  }
-  ~GoneWatcher() {
-    done_.store(true);
-    if (thread_.joinable()) thread_.join();
-  }
-  GoneWatcher(const GoneWatcher&) = delete;
-  GoneWatcher& operator=(const GoneWatcher&) = delete;
-
- private:
-  std::atomic<bool> done_{false};
-  std::thread thread_;
-};
 
 std::string InstancePrefix() {
   char buf[16];
@@ -157,15 +119,14 @@ void PlannerCore::RecordError(const Status& status) {
 }
 
 template <typename T, typename Fn>
-Result<T> PlannerCore::RunOnWorker(const Slot& slot, const CallStop& stop, const char* what,
+Result<T> PlannerCore::RunOnWorker(const Slot& slot, const Termination& stop, const char* what,
                                    Fn work) {
   CancelFlag cancel;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     operation_cancel_ = cancel;
   }
-  const Termination until = stop.deadline.WithCancel(cancel);
-  const GoneWatcher watcher(stop.client_gone, cancel);
+  const Termination until = stop.WithCancel(cancel);
   // The task holds a copy of the slot: the slot stays taken until the worker is done with it,
   // even when the caller gives up at its deadline and the task runs on to its next poll.
   Ticket<Result<T>> ticket = queue_.Submit<Result<T>>(
@@ -197,7 +158,7 @@ Status PlannerCore::Install(std::shared_ptr<const Snapshot> next,
 
 Result<planning::MapInfo> PlannerCore::LoadMapFile(const std::string& path,
                                                    planning::MapOptions options,
-                                                   const CallStop& stop) {
+                                                   const Termination& stop) {
   MAV_ASSIGN_OR_RETURN(Slot slot, Reserve("LoadMap"));
   options.max_memory_bytes = options_.max_map_memory_bytes;
   options.threads = options_.threads;
@@ -220,7 +181,7 @@ Result<planning::MapInfo> PlannerCore::LoadMapFile(const std::string& path,
 Result<planning::MapInfo> PlannerCore::LoadMapBytes(const Slot& slot, std::string bytes,
                                                     const std::string& source,
                                                     planning::MapOptions options,
-                                                    const CallStop& stop) {
+                                                    const Termination& stop) {
   MAV_CHECK(slot != nullptr) << "LoadMapBytes needs a reserved slot";
   options.max_memory_bytes = options_.max_map_memory_bytes;
   options.threads = options_.threads;
@@ -243,7 +204,7 @@ Result<planning::MapInfo> PlannerCore::LoadMapBytes(const Slot& slot, std::strin
 }
 
 Result<planning::RoadmapInfo> PlannerCore::BuildRoadmap(planning::RoadmapOptions options,
-                                                        const CallStop& stop) {
+                                                        const Termination& stop) {
   if (options.max_milestones > options_.max_milestones) {
     return Status::ResourceExhausted("max_milestones: " + std::to_string(options.max_milestones) +
                                      " is above the server's limit of " +
@@ -274,7 +235,7 @@ Result<planning::RoadmapInfo> PlannerCore::BuildRoadmap(planning::RoadmapOptions
 }
 
 Result<planning::RoadmapInfo> PlannerCore::LoadRoadmap(const std::string& path,
-                                                       const CallStop& stop) {
+                                                       const Termination& stop) {
   const std::shared_ptr<const Snapshot> current = snapshot_.load();
   if (current == nullptr) return Status::FailedPrecondition("no map: call LoadMap first");
   MAV_ASSIGN_OR_RETURN(Slot slot, Reserve("LoadRoadmap"));
@@ -297,7 +258,7 @@ Result<planning::RoadmapInfo> PlannerCore::LoadRoadmap(const std::string& path,
 }
 
 Result<planning::RoadmapInfo> PlannerCore::SaveRoadmap(const std::string& path,
-                                                       const CallStop& stop) {
+                                                       const Termination& stop) {
   if (!EndsWith(path, ".mavprm")) {
     return Status::InvalidArgument("path: " + QuoteForError(path) + " must end in \".mavprm\"");
   }
@@ -305,7 +266,7 @@ Result<planning::RoadmapInfo> PlannerCore::SaveRoadmap(const std::string& path,
   if (current == nullptr || current->roadmap == nullptr) {
     return Status::FailedPrecondition("no roadmap: call BuildRoadmap or LoadRoadmap first");
   }
-  if (PathExists(path) && !LooksLikeRoadmapFile(path)) {
+  if (PathExists(path) && !planning::Roadmap::IsRoadmapFile(path)) {
     return Status::FailedPrecondition("path: " + path +
                                       " exists and is not a roadmap file; not overwriting it");
   }
@@ -326,7 +287,8 @@ Result<planning::RoadmapInfo> PlannerCore::SaveRoadmap(const std::string& path,
   return info;
 }
 
-Result<PlanOutcome> PlannerCore::Plan(const planning::PlanRequest& request, const CallStop& stop) {
+Result<PlanOutcome> PlannerCore::Plan(const planning::PlanRequest& request,
+                                      const Termination& stop) {
   const std::shared_ptr<const Snapshot> snapshot = snapshot_.load();
   if (snapshot == nullptr) {
     RecordFailed();
@@ -341,14 +303,8 @@ Result<PlanOutcome> PlannerCore::Plan(const planning::PlanRequest& request, cons
                                      " plans in flight, the server's limit "
                                      "(--max-plans-in-flight); retry later");
   }
-  // A fresh PRM* runs its whole time budget (up to 600 s): it watches the client too.
-  const bool fresh = snapshot->roadmap == nullptr || !request.use_roadmap;
-  const CancelFlag cancel = fresh ? CancelFlag() : shutdown_;
-  std::optional<GoneWatcher> watcher;
-  if (fresh) watcher.emplace(stop.client_gone, cancel);
-  Result<planning::PlanResult> result = planning::PlanPath(
-      *snapshot->map, snapshot->roadmap.get(), request, stop.deadline.WithCancel(cancel));
-  watcher.reset();
+  Result<planning::PlanResult> result = planning::PlanPath(*snapshot->map, snapshot->roadmap.get(),
+                                                           request, stop.WithCancel(shutdown_));
   in_flight_.fetch_sub(1);
   if (!result.ok()) {
     RecordFailed();

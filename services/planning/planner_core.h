@@ -15,13 +15,13 @@
 //   planning::PlanPath on it without locks; a rebuild or reload swaps the pointer and never
 //   blocks or breaks the plans in flight, which finish on the snapshot they took.
 //
-// Deadlines: every call takes a CallStop: the client's deadline and whether the client went away
-// (a cancelled call; gRPC also cancels the calls still running when a shutdown's grace period
-// ends). A long operation stops when either fires (the library polls them) and keeps nothing: the
-// worker returns its product, the calling thread installs it only if the deadline has not passed.
-// A plan is stopped by the library (DEADLINE_EXCEEDED) and is stored (StorePlan) only by a
-// caller that checked its deadline first; a plan on the roadmap takes milliseconds and watches
-// only its deadline, a fresh PRM* (no roadmap) watches the client too.
+// Deadlines: every call takes the caller's Termination (the service passes a CallWatch's:
+// services/common/call_watch.h, the client's deadline and whether the client went away; gRPC
+// also cancels the calls still running when a shutdown's grace period ends), and the core adds
+// its own cancel flag (Shutdown). A long operation stops when either fires (the library polls
+// them) and keeps nothing: the worker returns its product, the calling thread installs it only
+// if the deadline has not passed. A plan is stopped by the library (DEADLINE_EXCEEDED or
+// CANCELLED) and is stored (StorePlan) only by a caller that checked its deadline first.
 //
 // Memory, all bounded by options: a map's grids are refused above max_map_memory_bytes before
 // they are allocated (planning::EstimateMapMemory); a roadmap of more than max_milestones is
@@ -70,12 +70,6 @@ struct PlannerCoreOptions {
   bool IsValid(std::string* why) const;
   // max_plans_in_flight with 0 resolved.
   int PlansInFlightLimit() const;
-};
-
-// How a call ends early (see the file comment).
-struct CallStop {
-  Termination deadline;               // the client's (Never without one)
-  std::function<bool()> client_gone;  // polled every 20 ms while the call waits; may be empty
 };
 
 // What plans run against. Immutable once published; plans in flight keep theirs alive.
@@ -142,29 +136,29 @@ class PlannerCore {
   // roadmap. DEADLINE_EXCEEDED / CANCELLED: nothing replaced. `options.max_memory_bytes` and
   // `options.threads` are the server's.
   Result<planning::MapInfo> LoadMapFile(const std::string& path, planning::MapOptions options,
-                                        const CallStop& stop);
+                                        const Termination& stop);
   // The same from bytes (an upload, the mapping service's map) under a reserved slot.
   Result<planning::MapInfo> LoadMapBytes(const Slot& slot, std::string bytes,
                                          const std::string& source, planning::MapOptions options,
-                                         const CallStop& stop);
+                                         const Termination& stop);
 
   // Builds a roadmap on the current map and installs it. FAILED_PRECONDITION without a map;
   // RESOURCE_EXHAUSTED above max_milestones or when busy; the library's INVALID_ARGUMENT;
   // DEADLINE_EXCEEDED / CANCELLED: nothing kept.
   Result<planning::RoadmapInfo> BuildRoadmap(planning::RoadmapOptions options,
-                                             const CallStop& stop);
+                                             const Termination& stop);
   // Loads a roadmap file of the current map (library: NOT_FOUND, DATA_LOSS, FAILED_PRECONDITION
   // for another map) and installs it.
-  Result<planning::RoadmapInfo> LoadRoadmap(const std::string& path, const CallStop& stop);
+  Result<planning::RoadmapInfo> LoadRoadmap(const std::string& path, const Termination& stop);
   // Saves the current roadmap. FAILED_PRECONDITION without one, or when `path` exists and is not
   // a roadmap file (never overwritten); INVALID_ARGUMENT "path: ..." unless it ends in
   // ".mavprm"; IO_ERROR naming the file.
-  Result<planning::RoadmapInfo> SaveRoadmap(const std::string& path, const CallStop& stop);
+  Result<planning::RoadmapInfo> SaveRoadmap(const std::string& path, const Termination& stop);
 
   // Plans on the current snapshot (see the file comment). FAILED_PRECONDITION without a map;
   // RESOURCE_EXHAUSTED when max_plans_in_flight plans run; the library's INVALID_ARGUMENT and
   // DEADLINE_EXCEEDED / CANCELLED.
-  Result<PlanOutcome> Plan(const planning::PlanRequest& request, const CallStop& stop);
+  Result<PlanOutcome> Plan(const planning::PlanRequest& request, const Termination& stop);
   // Counts an answered Plan (the statistics of GetStatus): `handler_ms` is the caller's whole
   // time for it, `success` whether the plan reached SUCCESS.
   void RecordAnswered(bool success, double handler_ms);
@@ -189,7 +183,7 @@ class PlannerCore {
   // Runs `work` on the worker under `slot` until `stop` (or Shutdown) ends it, waits for it,
   // then checks the deadline: a late product is dropped.
   template <typename T, typename Fn>
-  Result<T> RunOnWorker(const Slot& slot, const CallStop& stop, const char* what, Fn work);
+  Result<T> RunOnWorker(const Slot& slot, const Termination& stop, const char* what, Fn work);
   // Installs `next` as the snapshot when `expected_map` is still the current map (else
   // FAILED_PRECONDITION: the map changed while the operation ran).
   Status Install(std::shared_ptr<const Snapshot> next,

@@ -14,6 +14,7 @@
 #include "mav/common/log.h"
 #include "mav/common/text.h"
 #include "mav/common/time.h"
+#include "services/common/call_watch.h"
 #include "services/common/grpc_status.h"
 #include "services/planning/convert.h"
 
@@ -21,7 +22,7 @@ namespace mav::planning_service {
 
 namespace {
 
-using service_common::CallTermination;
+using service_common::CallWatch;
 using service_common::CheckDeadline;
 using service_common::ToGrpcStatus;
 
@@ -30,10 +31,6 @@ constexpr size_t kEchoBytes = 256;
 
 // The call's deadline and its cancellation (by the client, or by the server at the end of a
 // shutdown's grace period), for the core.
-CallStop StopOf(grpc::ServerContext* context) {
-  return {CallTermination(*context), [context] { return context->IsCancelled(); }};
-}
-
 std::string Echo(const std::string& s) {
   return s.size() <= kEchoBytes ? s : s.substr(0, kEchoBytes) + "...";
 }
@@ -142,7 +139,8 @@ grpc::Status PlanningService::LoadMap(grpc::ServerContext* context,
     return ToGrpcStatus(Status::InvalidArgument("mapping.address: empty"));
   }
   if (Status s = CheckDeadline(*context, "LoadMap"); !s.ok()) return ToGrpcStatus(s);
-  const CallStop stop = StopOf(context);
+  const CallWatch call(context);
+  const Termination& stop = call.termination();
   Result<planning::MapInfo> info = Status::Internal("unreachable");
   if (request->has_file()) {
     info = core_->LoadMapFile(request->file().path(), *options, stop);
@@ -150,7 +148,7 @@ grpc::Status PlanningService::LoadMap(grpc::ServerContext* context,
     Result<PlannerCore::Slot> slot = core_->Reserve("LoadMap");
     if (!slot.ok()) return ToGrpcStatus(slot.status());
     core_->SetProgress("fetching map", 0);
-    Result<std::string> bytes = FetchFromMapping(request->mapping(), stop.deadline);
+    Result<std::string> bytes = FetchFromMapping(request->mapping(), stop);
     if (!bytes.ok()) {
       MAV_LOG(kWarning) << "LoadMap: " << bytes.status().ToString();
       return ToGrpcStatus(bytes.status());
@@ -203,8 +201,8 @@ grpc::Status PlanningService::UploadMap(grpc::ServerContext* context,
   } while (reader->Read(&message));
   if (Status s = SizeComplete(bytes, total, "chunk"); !s.ok()) return ToGrpcStatus(s);
   if (Status s = CheckDeadline(*context, "UploadMap"); !s.ok()) return ToGrpcStatus(s);
-  Result<planning::MapInfo> info =
-      core_->LoadMapBytes(*slot, std::move(bytes), "upload", *options, StopOf(context));
+  Result<planning::MapInfo> info = core_->LoadMapBytes(*slot, std::move(bytes), "upload", *options,
+                                                       CallWatch(context).termination());
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, *options, response);
   return grpc::Status::OK;
@@ -216,7 +214,8 @@ grpc::Status PlanningService::BuildRoadmap(grpc::ServerContext* context,
   Result<planning::RoadmapOptions> options = RoadmapOptionsFromProto(*request);
   if (!options.ok()) return ToGrpcStatus(options.status());
   if (Status s = CheckDeadline(*context, "BuildRoadmap"); !s.ok()) return ToGrpcStatus(s);
-  Result<planning::RoadmapInfo> info = core_->BuildRoadmap(*options, StopOf(context));
+  Result<planning::RoadmapInfo> info =
+      core_->BuildRoadmap(*options, CallWatch(context).termination());
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, "built", response);
   return grpc::Status::OK;
@@ -227,7 +226,8 @@ grpc::Status PlanningService::SaveRoadmap(grpc::ServerContext* context,
                                           v1::RoadmapInfo* response) {
   if (request->path().empty()) return ToGrpcStatus(Status::InvalidArgument("path: empty"));
   if (Status s = CheckDeadline(*context, "SaveRoadmap"); !s.ok()) return ToGrpcStatus(s);
-  Result<planning::RoadmapInfo> info = core_->SaveRoadmap(request->path(), StopOf(context));
+  Result<planning::RoadmapInfo> info =
+      core_->SaveRoadmap(request->path(), CallWatch(context).termination());
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, request->path(), response);
   return grpc::Status::OK;
@@ -238,7 +238,8 @@ grpc::Status PlanningService::LoadRoadmap(grpc::ServerContext* context,
                                           v1::RoadmapInfo* response) {
   if (request->path().empty()) return ToGrpcStatus(Status::InvalidArgument("path: empty"));
   if (Status s = CheckDeadline(*context, "LoadRoadmap"); !s.ok()) return ToGrpcStatus(s);
-  Result<planning::RoadmapInfo> info = core_->LoadRoadmap(request->path(), StopOf(context));
+  Result<planning::RoadmapInfo> info =
+      core_->LoadRoadmap(request->path(), CallWatch(context).termination());
   if (!info.ok()) return ToGrpcStatus(info.status());
   ToProto(*info, request->path(), response);
   return grpc::Status::OK;
@@ -265,7 +266,7 @@ grpc::Status PlanningService::PlanPath(grpc::ServerContext* context,
     core_->RecordFailed();
     return ToGrpcStatus(failure);
   }
-  Result<PlanOutcome> outcome = core_->Plan(*plan_request, StopOf(context));
+  Result<PlanOutcome> outcome = core_->Plan(*plan_request, CallWatch(context).termination());
   if (!outcome.ok()) return ToGrpcStatus(outcome.status());
   failure = FillPlanResponse(*outcome, request->sample_dt_s(), response);
   // Stored only when the client still waits for it: a late plan changes nothing.

@@ -11,6 +11,7 @@
 #include "mav/dataset/flight_task_io.h"
 #include "mav/sim/flight_task.h"
 #include "mav/sim/occupancy.h"
+#include "services/common/call_watch.h"
 #include "services/common/file_stream.h"
 #include "services/common/grpc_status.h"
 #include "services/simulator/convert.h"
@@ -19,7 +20,7 @@ namespace mav::simulator_service {
 
 namespace {
 
-using service_common::CallTermination;
+using service_common::CallWatch;
 using service_common::CheckDeadline;
 using service_common::ChunkSize;
 using service_common::OccupancyFormatFromProto;
@@ -94,7 +95,8 @@ grpc::Status SimulatorService::LoadScenario(grpc::ServerContext* context,
   // Opening a preset takes a while: a client that gave up meanwhile must not replace the scenario.
   if (Status s = CheckDeadline(*context, "LoadScenario"); !s.ok()) return ToGrpcStatus(s);
   std::shared_ptr<const ScenarioSource> shared = std::move(*source);
-  if (Status s = player_.Load(shared, CallTermination(*context)); !s.ok()) return ToGrpcStatus(s);
+  if (Status s = player_.Load(shared, CallWatch(context).termination()); !s.ok())
+    return ToGrpcStatus(s);
   set_mission_scene(nullptr);  // GetCalibration / GetGroundTruthOccupancy answer for the scenario
   ToProto(shared->info(), response->mutable_scenario());
   return grpc::Status::OK;
@@ -133,7 +135,7 @@ grpc::Status SimulatorService::Step(grpc::ServerContext* context,
     return ToGrpcStatus(Status::InvalidArgument("frames: must be >= 1, got 0"));
   }
   if (Status s = CheckDeadline(*context, "Step"); !s.ok()) return ToGrpcStatus(s);
-  Result<PlayerStatus> status = player_.Step(request->frames(), CallTermination(*context));
+  Result<PlayerStatus> status = player_.Step(request->frames(), CallWatch(context).termination());
   if (!status.ok()) return ToGrpcStatus(status.status());
   ToProto(*status, response);
   return grpc::Status::OK;
@@ -240,8 +242,9 @@ grpc::Status SimulatorService::GetGroundTruthOccupancy(
     }
   } release{this, static_cast<int64_t>(need)};
   Result<dataset::OccupancyGrid> grid =
-      mission ? sim::ComputeOccupancy(*mission->preset.world, resolution, CallTermination(*context))
-              : source->Occupancy(resolution, CallTermination(*context));
+      mission ? sim::ComputeOccupancy(*mission->preset.world, resolution,
+                                      CallWatch(context).termination())
+              : source->Occupancy(resolution, CallWatch(context).termination());
   if (!grid.ok()) return ToGrpcStatus(grid.status());
   if (Status s = CheckDeadline(*context, "GetGroundTruthOccupancy"); !s.ok()) {
     return ToGrpcStatus(s);
@@ -344,7 +347,7 @@ grpc::Status SimulatorService::LoadFlightTask(grpc::ServerContext* context,
                                               const v1::LoadFlightTaskRequest* request,
                                               v1::FlightStatus* response) {
   if (Status s = CheckDeadline(*context, "LoadFlightTask"); !s.ok()) return ToGrpcStatus(s);
-  return ApplyLoadFlightTask(*request, CallTermination(*context), response);
+  return ApplyLoadFlightTask(*request, CallWatch(context).termination(), response);
 }
 
 grpc::Status SimulatorService::StartFlight(grpc::ServerContext* context,

@@ -158,7 +158,7 @@ class ControlStackTest : public ::testing::Test {
   // mav-control configured with what the contest told the teams about the task.
   void ConfigureFor(const std::string& task_name, bool lockstep) {
     Result<dataset::FlightTask> task =
-        control_service::FlightTaskFromSpec(task_name, sim::DefaultPlantMapPath());
+        sim::FlightTaskFromSpec(task_name, sim::DefaultPlantMapPath());
     ASSERT_TRUE(task.ok()) << task.status().ToString();
     v1::ControlConfigureRequest request;
     control_service::ToProto(

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include "mav/common/check.h"
 #include "mav/common/time.h"
 
 namespace mav {
@@ -29,7 +30,13 @@ Termination Termination::AtMonotonicNs(int64_t deadline_ns) {
 
 Termination Termination::WithCancel(const CancelFlag& flag) const {
   Termination t = *this;
-  t.cancel_ = flag.flag_;
+  if (t.cancel_ == nullptr || t.cancel_ == flag.flag_) {
+    t.cancel_ = flag.flag_;
+  } else {
+    MAV_CHECK(t.cancel2_ == nullptr || t.cancel2_ == flag.flag_)
+        << "a Termination observes two cancel flags at most";
+    t.cancel2_ = flag.flag_;
+  }
   return t;
 }
 
@@ -40,7 +47,8 @@ Termination Termination::WithDeadlineNs(int64_t deadline_ns) const {
 }
 
 bool Termination::cancelled() const {
-  return cancel_ != nullptr && cancel_->load(std::memory_order_relaxed);
+  return (cancel_ != nullptr && cancel_->load(std::memory_order_relaxed)) ||
+         (cancel2_ != nullptr && cancel2_->load(std::memory_order_relaxed));
 }
 
 bool Termination::expired() const {

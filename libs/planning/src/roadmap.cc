@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <numeric>
 #include <sstream>
 #include <thread>
@@ -356,6 +357,14 @@ Result<std::shared_ptr<const Roadmap>> Roadmap::Load(const std::string& path,
   if (!PathExists(path)) return Status::NotFound(path + ": no such file");
   MAV_ASSIGN_OR_RETURN(const std::string bytes, ReadFileToString(path));
   return Deserialize(bytes, path, map);
+}
+
+bool Roadmap::IsRoadmapFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char head[sizeof(kMagic)] = {};
+  in.read(head, sizeof(head));
+  return in.gcount() == static_cast<std::streamsize>(sizeof(head)) &&
+         std::memcmp(head, kMagic, sizeof(kMagic)) == 0;
 }
 
 Result<std::shared_ptr<const Roadmap>> Roadmap::Deserialize(std::string_view bytes,

@@ -3,6 +3,7 @@
 #include <cstdlib>
 
 #include "mav/common/text.h"
+#include "mav/dataset/flight_task_io.h"
 
 namespace mav::sim {
 
@@ -91,6 +92,17 @@ Result<FlightTask> BuiltinFlightTask(const std::string& name, const std::string&
   for (const std::string& n : FlightTaskNames()) known += (known.empty() ? "" : ", ") + n;
   return Status::NotFound("task: unknown flight task " + QuoteForError(name) + " (known: " + known +
                           ")");
+}
+
+Result<FlightTask> FlightTaskFromSpec(const std::string& name_or_file,
+                                      const std::string& plant_map_path) {
+  const dataset::FlightTaskResolver resolve = [plant_map_path](const std::string& name) {
+    return BuiltinFlightTask(name, plant_map_path);
+  };
+  const bool is_file =
+      name_or_file.size() > 5 && name_or_file.compare(name_or_file.size() - 5, 5, ".yaml") == 0;
+  if (is_file) return dataset::ReadFlightTaskFile(name_or_file, resolve, "t3_1");
+  return resolve(name_or_file);
 }
 
 }  // namespace mav::sim

@@ -52,6 +52,22 @@ TEST(TerminationTest, CancelFlagIsSharedByCopies) {
   EXPECT_EQ(copy.Check("build").code(), StatusCode::kCancelled);
 }
 
+TEST(TerminationTest, EitherOfTwoFlagsStopsIt) {
+  CancelFlag client, owner;
+  const Termination t = Termination::Never().WithCancel(client).WithCancel(owner);
+  EXPECT_FALSE(t.ShouldStop());
+  owner.Cancel();
+  EXPECT_TRUE(t.cancelled());
+  CancelFlag client2, owner2;
+  const Termination u = Termination::Never().WithCancel(client2).WithCancel(owner2);
+  client2.Cancel();
+  EXPECT_EQ(u.Check("plan").code(), StatusCode::kCancelled);
+  // The same flag twice takes no second slot.
+  CancelFlag once;
+  const Termination v = Termination::Never().WithCancel(once).WithCancel(once).WithCancel(client2);
+  EXPECT_TRUE(v.cancelled());
+}
+
 TEST(TerminationTest, EarlierDeadlineWins) {
   const int64_t now = MonotonicNowNs();
   const Termination t = Termination::AtMonotonicNs(now + 1'000'000'000).WithDeadlineNs(now - 1);

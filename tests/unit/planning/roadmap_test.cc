@@ -110,6 +110,14 @@ TEST_F(RoadmapTest, SaveLoadRoundTrip) {
     ASSERT_EQ(a.edges()[i].proximity, b.edges()[i].proximity);
   }
   EXPECT_EQ(a.Serialize(), b.Serialize());
+  // What a caller checks before overwriting a file.
+  EXPECT_TRUE(Roadmap::IsRoadmapFile(path));
+  const std::string text = mav::testing::BinaryDir() + "/roadmap_test_not_a_roadmap.txt";
+  ASSERT_TRUE(WriteStringToFileAtomic(text, "MAVPRM but not the magic bytes").ok());
+  EXPECT_FALSE(Roadmap::IsRoadmapFile(text));
+  ASSERT_TRUE(WriteStringToFileAtomic(text, "MAV").ok());  // shorter than the magic
+  EXPECT_FALSE(Roadmap::IsRoadmapFile(text));
+  EXPECT_FALSE(Roadmap::IsRoadmapFile("/nonexistent/r.mavprm"));
 }
 
 TEST_F(RoadmapTest, CorruptFilesAreDataLossNamingTheFile) {

@@ -50,7 +50,8 @@ class Termination {
   // Stops when MonotonicNowNs() reaches `deadline_ns` (kNever = no deadline).
   static Termination AtMonotonicNs(int64_t deadline_ns);
 
-  // A copy that also stops when `flag` is raised (replaces an earlier flag).
+  // A copy that also stops when `flag` is raised. Two flags at most (the caller's, e.g. a
+  // client that went away, and the owner's, e.g. a shutdown); a third is a bug (MAV_CHECK).
   Termination WithCancel(const CancelFlag& flag) const;
   // A copy whose deadline is the earlier of this one's and `deadline_ns`.
   Termination WithDeadlineNs(int64_t deadline_ns) const;
@@ -69,6 +70,7 @@ class Termination {
  private:
   int64_t deadline_ns_ = kNever;
   std::shared_ptr<const std::atomic<bool>> cancel_;
+  std::shared_ptr<const std::atomic<bool>> cancel2_;
 };
 
 // Progress of long work: `stage` names the step ("distance map", "roadmap"), `fraction` in

@@ -94,6 +94,9 @@ class Roadmap {
   // Saves atomically (written to <path>.tmp, then renamed). IO_ERROR naming the file.
   Status Save(const std::string& path) const;
   std::string Serialize() const;
+  // Whether the file at `path` starts as a roadmap file does (its magic bytes): a caller about
+  // to overwrite a file checks it is one. False for a missing or unreadable file.
+  static bool IsRoadmapFile(const std::string& path);
   // NOT_FOUND: no such file; DATA_LOSS naming the file: not a roadmap file, unknown version,
   // truncated, checksum mismatch, inconsistent contents; FAILED_PRECONDITION: built for another
   // map (fingerprint or robot radius differ).

@@ -40,4 +40,10 @@ inline Result<dataset::FlightTask> BuiltinFlightTask(const std::string& name) {
   return BuiltinFlightTask(name, DefaultPlantMapPath());
 }
 
+// A built-in task name (t3_1 ... t4_3) or a task file (*.yaml, over t3_1 unless it names its
+// base, mav/dataset/flight_task_io.h). NotFound / InvalidArgument naming the task or the file's
+// key.
+Result<dataset::FlightTask> FlightTaskFromSpec(const std::string& name_or_file,
+                                               const std::string& plant_map_path);
+
 }  // namespace mav::sim

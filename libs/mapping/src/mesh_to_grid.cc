@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <thread>
 
 #include <Eigen/Geometry>
 #include <unordered_map>
@@ -11,6 +10,7 @@
 #include <Eigen/Dense>
 
 #include "mav/common/check.h"
+#include "mav/common/parallel.h"
 #include "voxel_traversal.h"
 
 namespace mav::mapping {
@@ -270,10 +270,11 @@ Result<OccupancyGrid> MeshToOccupancy(const MeshingResult& meshing,
     constexpr size_t kMinPointsPerWorker = 20000;
     if (points.size() >= 2 * kMinPointsPerWorker) {
       std::vector<uint8_t> seen_other(num_voxels, 0);
-      const size_t half = points.size() / 2;
-      std::thread worker(trace, half, points.size(), &seen_other);
-      trace(0, half, &seen);
-      worker.join();
+      ParallelFor(2, static_cast<int64_t>(points.size()),
+                  [&](int part, int64_t begin, int64_t end) {
+                    trace(static_cast<size_t>(begin), static_cast<size_t>(end),
+                          part == 0 ? &seen : &seen_other);
+                  });
       for (size_t i = 0; i < num_voxels; ++i) seen[i] |= seen_other[i];
     } else {
       trace(0, points.size(), &seen);

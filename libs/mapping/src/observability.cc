@@ -1,8 +1,8 @@
 #include "mav/mapping/observability.h"
 
 #include <cmath>
-#include <thread>
 
+#include "mav/common/parallel.h"
 #include "voxel_traversal.h"
 
 namespace mav::mapping {
@@ -57,9 +57,9 @@ Result<std::vector<uint8_t>> ObservableVoxels(const OccupancyGrid& truth,
   };
   const size_t n = static_cast<size_t>(truth.num_voxels());
   std::vector<uint8_t> observed(n, 0), other(n, 0);
-  std::thread worker(trace, 1, &other);
-  trace(0, &observed);
-  worker.join();
+  ParallelFor(2, 2, [&](int part, int64_t, int64_t) {
+    trace(static_cast<size_t>(part), part == 0 ? &observed : &other);
+  });
   for (size_t i = 0; i < n; ++i) observed[i] |= other[i];
   return observed;
 }

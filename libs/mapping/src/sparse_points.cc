@@ -4,10 +4,10 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
-#include <thread>
 #include <tuple>
 
 #include "mav/common/check.h"
+#include "mav/common/parallel.h"
 #include "mav/common/time.h"
 #include "mav/localization/matcher.h"
 
@@ -250,9 +250,13 @@ Result<std::vector<StereoObservation>> SparsePointCloud::MatchStereo(const Image
   int64_t start = MonotonicNowNs();
   Extractors& ex = *extractors_;
   if (options_.parallel_extraction) {
-    std::thread worker([&] { ex.right.Extract(right, &ex.right_features); });
-    ex.left.Extract(left, &ex.left_features);
-    worker.join();
+    ParallelFor(2, 2, [&](int part, int64_t, int64_t) {
+      if (part == 0) {
+        ex.left.Extract(left, &ex.left_features);
+      } else {
+        ex.right.Extract(right, &ex.right_features);
+      }
+    });
   } else {
     ex.left.Extract(left, &ex.left_features);
     ex.right.Extract(right, &ex.right_features);

@@ -6,7 +6,8 @@
 #include <atomic>
 #include <cmath>
 #include <functional>
-#include <thread>
+
+#include "mav/common/parallel.h"
 
 namespace mav::planning::internal {
 namespace {
@@ -79,9 +80,8 @@ void HalfLatticeTransform(int n, RowScratch* s) {
 Status ForRows(int64_t count, int n_max, int threads, const Termination& stop,
                const std::function<void(int64_t, RowScratch*)>& row) {
   std::atomic<bool> stopped{false};
-  auto worker = [&](int t) {
+  ParallelFor(threads, count, [&](int, int64_t begin, int64_t end) {
     RowScratch scratch(n_max);
-    const int64_t begin = count * t / threads, end = count * (t + 1) / threads;
     for (int64_t r = begin; r < end; ++r) {
       if ((r & 255) == 0 && (stopped.load(std::memory_order_relaxed) || stop.ShouldStop())) {
         stopped = true;
@@ -89,11 +89,7 @@ Status ForRows(int64_t count, int n_max, int threads, const Termination& stop,
       }
       row(r, &scratch);
     }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker, t);
-  worker(0);
-  for (std::thread& th : pool) th.join();
+  });
   if (stopped) return stop.Check("distance map");
   return Status::Ok();
 }

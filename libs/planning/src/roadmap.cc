@@ -10,10 +10,10 @@
 #include <fstream>
 #include <numeric>
 #include <sstream>
-#include <thread>
 
 #include "mav/common/file.h"
 #include "mav/common/hash.h"
+#include "mav/common/parallel.h"
 #include "mav/common/time.h"
 #include "mav/planning/path.h"
 #include "ompl_space.h"
@@ -261,21 +261,16 @@ Result<std::shared_ptr<const Roadmap>> Roadmap::Build(const ClearanceMap& map,
   {
     std::vector<RoadmapEdge>& edges = impl->edges;
     const std::vector<Eigen::Vector3d>& points = impl->milestones;
-    auto worker = [&](int t) {
-      const size_t begin = edges.size() * t / options.threads;
-      const size_t end = edges.size() * (t + 1) / options.threads;
-      for (size_t i = begin; i < end; ++i) {
-        const Eigen::Vector3d& a = points[edges[i].a];
-        const Eigen::Vector3d& b = points[edges[i].b];
-        edges[i].length_m = static_cast<float>((b - a).norm());
-        edges[i].climb_m = static_cast<float>(std::abs(b.z() - a.z()));
-        edges[i].proximity = static_cast<float>(SegmentProximity(map, a, b));
-      }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < options.threads; ++t) pool.emplace_back(worker, t);
-    worker(0);
-    for (std::thread& th : pool) th.join();
+    ParallelFor(options.threads, static_cast<int64_t>(edges.size()),
+                [&](int, int64_t begin, int64_t end) {
+                  for (int64_t i = begin; i < end; ++i) {
+                    const Eigen::Vector3d& a = points[edges[i].a];
+                    const Eigen::Vector3d& b = points[edges[i].b];
+                    edges[i].length_m = static_cast<float>((b - a).norm());
+                    edges[i].climb_m = static_cast<float>(std::abs(b.z() - a.z()));
+                    edges[i].proximity = static_cast<float>(SegmentProximity(map, a, b));
+                  }
+                });
   }
   MAV_RETURN_IF_ERROR(stop.Check("roadmap build"));
 

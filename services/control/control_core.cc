@@ -10,33 +10,6 @@
 
 namespace mav::control_service {
 
-namespace {
-
-constexpr int64_t kRateWindowNs = 1'000'000'000;
-constexpr int64_t kRateStaleNs = 2'000'000'000;
-
-}  // namespace
-
-void ControlCore::RateMeter::Add(int64_t now_ns) {
-  if (count == 0 && window_start_ns == 0) window_start_ns = now_ns;
-  ++count;
-  last_ns = now_ns;
-  if (now_ns - window_start_ns >= kRateWindowNs) {
-    rate_hz = static_cast<double>(count) / NsToSeconds(now_ns - window_start_ns);
-    window_start_ns = now_ns;
-    count = 0;
-  }
-}
-
-double ControlCore::RateMeter::Rate(int64_t now_ns) const {
-  if (last_ns == 0 || now_ns - last_ns > kRateStaleNs) return 0.0;
-  if (rate_hz > 0) return rate_hz;
-  // No whole window yet (a short lock-stepped flight): the samples so far.
-  return count >= 2 && last_ns > window_start_ns
-             ? static_cast<double>(count - 1) / NsToSeconds(last_ns - window_start_ns)
-             : 0.0;
-}
-
 ControlCore::ControlCore(CommandSink* sink) : sink_(sink) { MAV_CHECK(sink_ != nullptr); }
 
 Status ControlCore::Configure(const ControlConfig& config, const Termination& deadline) {
@@ -74,8 +47,8 @@ Status ControlCore::Configure(const ControlConfig& config, const Termination& de
     s.wait_ns = SecondsToNs(l.wait_s);
   }
   lockstep_frames_missed_ = 0;
-  imu_rate_ = RateMeter();
-  pose_rate_ = RateMeter();
+  imu_rate_.Clear();
+  pose_rate_.Clear();
   loop_ms_.Clear();
   last_error_.clear();
   MAV_LOG(kInfo) << "configured: " << control::ControllerTypeName(config.autopilot.controller)

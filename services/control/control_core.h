@@ -157,13 +157,6 @@ class ControlCore {
 
  private:
   // Samples per wall second over ~1 s windows.
-  struct RateMeter {
-    int64_t window_start_ns = 0, last_ns = 0;
-    uint64_t count = 0;
-    double rate_hz = 0;
-    void Add(int64_t now_ns);
-    double Rate(int64_t now_ns) const;
-  };
   // A lock-step source's state (parallel to the configured sources).
   struct Held {
     int64_t t_ns = 0;

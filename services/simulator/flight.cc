@@ -6,6 +6,7 @@
 
 #include "mav/common/check.h"
 #include "mav/common/log.h"
+#include "mav/common/pacing.h"
 #include "mav/common/time.h"
 #include "mav/sim/scenario_source.h"
 #include "services/common/proto_codec.h"
@@ -98,8 +99,8 @@ struct Flight::Loaded {
   bool keep_trace = true;                          // false for a mission flight (no score)
   std::unique_ptr<mission::VehicleCamera> camera;  // a mission flight's, pose source vo
   int64_t imu_publish_wall_ns = 0;
-  // Real time: the pacing anchor and the newest valid command.
-  int64_t anchor_wall_ns = 0, anchor_t_ns = 0;
+  // Real time: when each step is due, and the newest valid command.
+  RealTimePacer pacer{1.0, kMaxLatenessNs};
   std::optional<ActuatorInput> latest;
   sim::RotorVector latest_command;
 };
@@ -425,18 +426,9 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
     }
     return std::nullopt;
   }
-  // Real time: step k+1 is due at anchor + (t_{k+1} - anchor_t) / factor.
+  // Real time: step k+1 is due at its data time on the pacer's schedule.
   const int64_t t_next = t_ns + loaded->sim.step_ns();
-  const double delay_ns =
-      static_cast<double>(t_next - loaded->anchor_t_ns) / config.real_time_factor;
-  int64_t due = loaded->anchor_wall_ns + static_cast<int64_t>(delay_ns);
-  const int64_t now = MonotonicNowNs();
-  if (now - due > kMaxLatenessNs) {
-    loaded->anchor_wall_ns = now;
-    loaded->anchor_t_ns = t_next;
-    due = now;
-  }
-  if (!context.SleepUntil(due)) return std::nullopt;
+  if (!context.SleepUntil(loaded->pacer.DueNs(t_next, MonotonicNowNs()))) return std::nullopt;
   std::optional<ActuatorInput> input = io_->WaitForCommand(
       std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::max(), 0, &received);
   count_received();
@@ -477,8 +469,10 @@ Status Flight::Run(const TaskContext& context, const FlightRun& run) {
     loaded = loaded_;
   }
   MAV_CHECK(loaded != nullptr);
-  loaded->anchor_wall_ns = MonotonicNowNs();
-  loaded->anchor_t_ns = loaded->sim.t_ns();
+  if (!loaded->config.lockstep) {  // lock-step has no real-time factor
+    loaded->pacer = RealTimePacer(loaded->config.real_time_factor, kMaxLatenessNs);
+    loaded->pacer.Anchor(loaded->sim.t_ns(), MonotonicNowNs());
+  }
   const int64_t until_ns = run.until_s > 0 ? SecondsToNs(run.until_s) : 0;
   const int rotor_count = loaded->config.simulation.vehicle.rotor_count;
   if (loaded->config.lockstep && loaded->step == 0 && !loaded->published) {

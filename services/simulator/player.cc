@@ -16,9 +16,6 @@ constexpr int64_t kNoTime = std::numeric_limits<int64_t>::max();
 // Fast mode: how long one frame may wait for its acknowledgements before we move on (a reader
 // that died keeps its match until its lease expires).
 constexpr int64_t kAckTimeoutNs = 2'000'000'000;
-// Real-time mode: when publishing falls this far behind the schedule, the schedule is reset
-// instead of bursting to catch up.
-constexpr int64_t kMaxLatenessNs = 200'000'000;
 constexpr size_t kStatsWindow = 1000;
 
 WorkQueueOptions QueueOptions() {
@@ -92,7 +89,7 @@ Status Player::Load(std::shared_ptr<const ScenarioSource> source, const Terminat
     RewindLocked();
     frames_published_ = imu_published_ = gt_published_ = 0;
     current_t_ns_ = 0;
-    publish_wall_ns_.clear();
+    publish_rate_.Clear();
     render_ms_.Clear();
     publish_ms_.Clear();
     last_error_.clear();
@@ -205,12 +202,7 @@ PlayerStatus Player::StatusLocked() const {
   status.imu_samples_published = imu_published_;
   status.ground_truth_published = gt_published_;
   status.current_t_ns = current_t_ns_;
-  if (publish_wall_ns_.size() >= 2) {
-    const double span_s = NsToSeconds(publish_wall_ns_.back() - publish_wall_ns_.front());
-    if (span_s > 0) {
-      status.achieved_rate_hz = static_cast<double>(publish_wall_ns_.size() - 1) / span_s;
-    }
-  }
+  status.achieved_rate_hz = publish_rate_.Rate(MonotonicNowNs());
   status.pacing = pacing_;
   status.stereo_subscribers = sink_->StereoSubscribers();
   status.imu_subscribers = sink_->ImuSubscribers();
@@ -237,15 +229,14 @@ Status Player::Run(const TaskContext& context, bool paced, int64_t frames) {
       if (!context.SleepUntil(MonotonicNowNs() + 10'000'000)) return Status::Ok();
     }
   }
-  auto anchor = [&] {
+  {
     std::lock_guard<std::mutex> lock(mutex_);
-    anchor_wall_ns_ = MonotonicNowNs();
-    anchor_t_ns_ = source->FrameTimeNs(next_frame_);
+    int64_t t_first = source->FrameTimeNs(next_frame_);
     if (next_imu_ < source->imu().size()) {
-      anchor_t_ns_ = std::min(anchor_t_ns_, source->imu()[next_imu_].t_ns);
+      t_first = std::min(t_first, source->imu()[next_imu_].t_ns);
     }
-  };
-  anchor();
+    pacer_.Anchor(t_first, MonotonicNowNs());
+  }
   int64_t published = 0;
   while (!context.ShouldStop() && (frames < 0 || published < frames)) {
     Status status = PublishNextFrame(context, paced);
@@ -260,8 +251,7 @@ Status Player::Run(const TaskContext& context, bool paced, int64_t frames) {
     if (next_frame_ >= source->info().frames) {
       if (frames < 0 && pacing.loop) {
         RewindLocked();
-        anchor_wall_ns_ = MonotonicNowNs();
-        anchor_t_ns_ = source->FrameTimeNs(0);
+        pacer_.Anchor(source->FrameTimeNs(0), MonotonicNowNs());
       } else {
         if (frames < 0) state_ = PlayerState::kFinished;  // a Step ends PAUSED
         return Status::Ok();
@@ -286,20 +276,11 @@ Status Player::PublishNextFrame(const TaskContext& context, bool paced) {
     factor = pacing_.real_time_factor;
   }
   const int64_t t_frame = source->FrameTimeNs(frame_index);
-  // Sleeps until data time t is due; false when interrupted. The due time is computed in double
-  // and saturated, so that no factor in the valid range overflows.
+  // Sleeps until data time t is due; false when interrupted. (Fast mode has no factor.)
+  if (paced) pacer_.set_factor(factor);
   auto wait_due = [&](int64_t t_ns) {
     if (!paced) return !context.ShouldStop();
-    const double delay_ns = static_cast<double>(t_ns - anchor_t_ns_) / factor;
-    const double due_d = static_cast<double>(anchor_wall_ns_) + delay_ns;
-    int64_t due = due_d >= 4e18 ? int64_t{4'000'000'000'000'000'000} : static_cast<int64_t>(due_d);
-    const int64_t now = MonotonicNowNs();
-    if (now - due > kMaxLatenessNs) {
-      anchor_wall_ns_ = now;
-      anchor_t_ns_ = t_ns;
-      due = now;
-    }
-    return context.SleepUntil(due);
+    return context.SleepUntil(pacer_.DueNs(t_ns, MonotonicNowNs()));
   };
 
   // Render (or fetch the pre-rendered) frame first so that the IMU and the frame go out together.
@@ -359,10 +340,7 @@ Status Player::PublishNextFrame(const TaskContext& context, bool paced) {
   ++frames_published_;
   ++next_frame_;
   current_t_ns_ = t_frame;
-  publish_wall_ns_.push_back(end_ns);
-  while (publish_wall_ns_.size() > 2 && end_ns - publish_wall_ns_.front() > 2 * kNsPerSecond) {
-    publish_wall_ns_.pop_front();
-  }
+  publish_rate_.Add(end_ns);
   return Status::Ok();
 }
 

@@ -19,12 +19,12 @@
 // frames.
 
 #include <cstdint>
-#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
 
+#include "mav/common/pacing.h"
 #include "mav/common/stats.h"
 #include "mav/common/status.h"
 #include "mav/common/termination.h"
@@ -141,14 +141,16 @@ class Player {
   uint64_t imu_published_ = 0;
   uint64_t gt_published_ = 0;
   int64_t current_t_ns_ = 0;
-  std::deque<int64_t> publish_wall_ns_;  // recent frame publish times for the achieved rate
+  RateMeter publish_rate_;  // frames published per wall second
   RuntimeWindow render_ms_;
   RuntimeWindow publish_ms_;
   std::string last_error_;
 
-  // Worker only: the pacing anchor (wall time at which data time anchor_t_ns_ is due).
-  int64_t anchor_wall_ns_ = 0;
-  int64_t anchor_t_ns_ = 0;
+  // Real-time mode: when publishing falls this far behind the schedule, the schedule is reset
+  // instead of bursting to catch up.
+  static constexpr int64_t kMaxLatenessNs = 200'000'000;
+  // Worker only: when each data time is due (anchored at the start, a rewind, a stall).
+  RealTimePacer pacer_{1.0, kMaxLatenessNs};
 };
 
 }  // namespace mav::simulator_service

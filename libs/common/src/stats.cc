@@ -54,4 +54,33 @@ void RuntimeWindow::Clear() {
 
 RuntimeStats RuntimeWindow::Summary() const { return SummarizeRuntimes(samples_); }
 
+RateMeter::RateMeter(int64_t window_ns, int64_t stale_ns)
+    : window_ns_(window_ns), stale_ns_(stale_ns) {}
+
+void RateMeter::Add(int64_t now_ns) {
+  if (!any_) {
+    any_ = true;
+    window_start_ns_ = now_ns;
+  }
+  ++count_;
+  last_ns_ = now_ns;
+  if (now_ns - window_start_ns_ >= window_ns_) {
+    rate_hz_ = static_cast<double>(count_) * 1e9 / static_cast<double>(now_ns - window_start_ns_);
+    window_start_ns_ = now_ns;
+    count_ = 0;
+  }
+}
+
+double RateMeter::Rate(int64_t now_ns) const {
+  if (!any_ || now_ns - last_ns_ > stale_ns_) return 0.0;
+  if (rate_hz_ > 0) return rate_hz_;
+  // No whole window yet (a short lock-stepped flight): the events so far.
+  return count_ >= 2 && last_ns_ > window_start_ns_
+             ? static_cast<double>(count_ - 1) * 1e9 /
+                   static_cast<double>(last_ns_ - window_start_ns_)
+             : 0.0;
+}
+
+void RateMeter::Clear() { *this = RateMeter(window_ns_, stale_ns_); }
+
 }  // namespace mav

@@ -59,3 +59,27 @@ TEST(StatsTest, WindowKeepsOnlyTheLastSamples) {
 
 }  // namespace
 }  // namespace mav
+
+namespace mav {
+namespace {
+
+constexpr int64_t kMs = 1'000'000;
+
+// The clock is the test's: 100 Hz for 1.5 s, then silence.
+TEST(RateMeterTest, WindowsPartialRateAndStaleness) {
+  RateMeter meter;  // 1 s windows, stale after 2 s
+  EXPECT_EQ(meter.Rate(0), 0.0);
+  meter.Add(0);
+  EXPECT_EQ(meter.Rate(0), 0.0);  // one event is no rate
+  for (int i = 1; i <= 50; ++i) meter.Add(i * 10 * kMs);
+  EXPECT_DOUBLE_EQ(meter.Rate(500 * kMs), 100.0);  // before the first whole window: so far
+  for (int i = 51; i <= 150; ++i) meter.Add(i * 10 * kMs);
+  EXPECT_NEAR(meter.Rate(1500 * kMs), 101.0, 1e-9);  // the first window: 101 events in 1 s
+  EXPECT_GT(meter.Rate(3400 * kMs), 0.0);
+  EXPECT_EQ(meter.Rate(3600 * kMs), 0.0);  // more than 2 s after the last event
+  meter.Clear();
+  EXPECT_EQ(meter.Rate(1500 * kMs), 0.0);
+}
+
+}  // namespace
+}  // namespace mav

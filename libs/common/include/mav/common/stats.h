@@ -50,4 +50,25 @@ class RuntimeWindow {
   uint64_t total_ = 0;
 };
 
+// Events per second on a monotonic clock (IMU samples, poses, published frames), the clock passed
+// in so that tests drive it: counts in windows of `window_ns` and reports the last whole window's
+// rate, or before the first one ends, the rate of the events so far (two or more); 0 when the
+// last event is more than `stale_ns` old (the stream stopped) or none came. Not thread-safe: the
+// owner serialises Add and Rate.
+class RateMeter {
+ public:
+  explicit RateMeter(int64_t window_ns = 1'000'000'000, int64_t stale_ns = 2'000'000'000);
+
+  void Add(int64_t now_ns);
+  double Rate(int64_t now_ns) const;
+  void Clear();
+
+ private:
+  int64_t window_ns_, stale_ns_;
+  int64_t window_start_ns_ = 0, last_ns_ = 0;
+  uint64_t count_ = 0;  // events since window_start_ns_
+  bool any_ = false;
+  double rate_hz_ = 0;  // of the last whole window
+};
+
 }  // namespace mav

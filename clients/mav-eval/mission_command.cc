@@ -1,12 +1,11 @@
-// mav-eval mission: flies a mission file in one process, lock-stepped (mav/mission/
-// lockstep_driver.h): the simulated vehicle, its rendered stereo camera and IMU, the VO, the
-// estimator and controller, the planner, and the mission logic (mav/mission/mission.h) that
-// mavctl mission run drives against the services. Writes the JSON report, DIR/trajectory.csv
-// and DIR/mission.png; exits 0 only when the mission completed.
+// mav-eval mission: flies a mission file in one process, lock-stepped (mav/eval/mission_eval.h:
+// the simulated vehicle, its rendered stereo camera and IMU, the VO, the estimator and
+// controller, the planner, and the mission logic that mavctl mission run drives against the
+// services). Writes the JSON report, DIR/trajectory.csv and DIR/mission.png; exits 0 only when
+// the mission completed.
 
 #include <unistd.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -24,10 +23,12 @@
 #include "mav/common/text.h"
 #include "mav/common/time.h"
 #include "mav/dataset/mission_file.h"
+#include "mav/eval/mission_eval.h"
 #include "mav/localization/odometry.h"
 #include "mav/mission/lockstep_driver.h"
 #include "mav/mission/mission.h"
 #include "mav/mission/report.h"
+#include "output.h"
 
 namespace mav::eval_cli {
 namespace {
@@ -35,8 +36,7 @@ namespace {
 constexpr const char* kCommand = "mav-eval mission";
 
 int Fail(const std::string& message, int code = 1) {
-  std::cerr << kCommand << ": " << message << "\n";
-  return code;
+  return eval_cli::Fail(kCommand, message, code);
 }
 
 // The command line: the flags mavctl mission run shares, and this driver's own.
@@ -118,61 +118,34 @@ int RunMission(const std::vector<std::string>& args) {
   plot::ApplyMissionFile(f, *spec, &options->vehicle);
   const mission::MissionOptions mission_options = plot::MissionLogicOptions(f, *spec);
 
-  const auto wall_start = std::chrono::steady_clock::now();
+  eval::MissionEvalOptions eval_options;
+  eval_options.spec = *std::move(spec);
+  eval_options.mission_path = f.mission_path;
+  eval_options.driver = *std::move(options);
+  eval_options.mission = mission_options;
+  eval_options.pose_source = f.pose_source;
+  eval_options.controller = f.controller;
+  eval_options.seed = f.seed;
   std::fprintf(stderr, "%s: %s in %s, seed %llu, pose source %s: building the world and map\n",
-               kCommand, f.mission_path.c_str(), spec->world.c_str(),
+               kCommand, f.mission_path.c_str(), eval_options.spec.world.c_str(),
                static_cast<unsigned long long>(f.seed), f.pose_source.c_str());
-  Result<std::unique_ptr<mission::LockstepDriver>> driver =
-      mission::LockstepDriver::Create(*spec, *options);
-  if (!driver.ok()) return Fail(driver.status().ToString() + " (no take-off)");
-  Result<mission::MissionReport> report =
-      mission::RunMission(*spec, mission_options, **driver, mission::ProgressLinePrinter(f.quiet));
-  if (!report.ok()) return Fail(report.status().ToString());
-
-  const std::vector<mission::FlightSample>& record = (*driver)->record();
-  mission::MissionFigures r = mission::FiguresOf(
-      f.mission_path, spec->world, f.pose_source, f.controller, "in-process", f.seed,
-      *std::move(report),
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count(), record);
-  const mission::LockstepStats stats = (*driver)->stats();
-  r.path_m = stats.path_m;
-  r.setup_s = stats.setup_s;
-  r.collisions = stats.collisions;
-  r.collision_descriptions = stats.collision_descriptions;
-  r.frames = stats.frames;
-  r.vo_tracked = stats.vo_tracked;
-  r.vo_lost = stats.vo_lost;
-  r.vo_skipped = stats.vo_skipped;
-  r.vo_ms = stats.vo_ms;
-  r.render_ms = stats.render_ms;
-  r.poses_merged = (*driver)->autopilot().status().poses;
-  r.poses_rejected = stats.poses_rejected;
-  r.map_description = stats.map_description;
-  r.keyframes = stats.keyframes;
-  r.map_rebuilds = stats.map_rebuilds;
-  r.map_errors = stats.map_errors;
-  r.map_build_ms = stats.map_build_ms;
-  r.plan_ms = stats.plan_ms;
-  if (options->map_source == mission::MapSource::kOnline) {
-    Result<mission::MapQuality> quality = (*driver)->EvaluateMap();
-    if (!quality.ok()) return Fail("evaluating the final map: " + quality.status().ToString());
-    r.map_quality = *quality;
+  Result<eval::MissionSummary> summary =
+      eval::EvaluateMission(eval_options, mission::ProgressLinePrinter(f.quiet));
+  if (!summary.ok()) return Fail(summary.status().ToString());
+  const mission::MissionFigures& r = summary->figures;
+  const mission::LockstepDriver& driver = *summary->driver;
+  if (Status s = PrintReport(eval::MissionEvalReport(*summary), f.json_path); !s.ok()) {
+    return Fail(s.message());
   }
-  std::fputs(mission::MissionTable(r).c_str(), stdout);
 
   if (!f.out_dir.empty()) {
     if (Status s = plot::WriteMissionFiles(
-            f.out_dir, *spec, r.report, record, (*driver)->planning_map(),
-            [&](const std::string& path) { return (*driver)->WriteMap(path); });
+            f.out_dir, eval_options.spec, r.report, driver.record(), driver.planning_map(),
+            [&](const std::string& path) { return driver.WriteMap(path); });
         !s.ok()) {
       return Fail(s.message());
     }
     std::printf("  wrote              %s/trajectory.csv, mission.png, map.bt\n", f.out_dir.c_str());
-  }
-  if (!f.json_path.empty()) {
-    if (Status s = WriteStringToFileAtomic(f.json_path, mission::MissionJson(r)); !s.ok()) {
-      return Fail(s.message());
-    }
   }
   return r.report.outcome == mission::MissionOutcome::kCompleted ? 0 : 1;
 }

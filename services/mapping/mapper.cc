@@ -497,6 +497,7 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(const BuildRequest& request,
   options.keep_unchecked_points = request.keep_unchecked_points;
   options.occlusion_check = request.occlusion_check;
   options.min_visibility = request.min_visibility;
+  options.unknown = request.unknown;
   auto progress = [this](std::string_view stage, double fraction) {
     std::lock_guard<std::mutex> lock(mutex_);
     build_stage_ = std::string(stage);
@@ -529,18 +530,11 @@ Result<std::shared_ptr<BuiltMap>> Mapper::RunBuild(const BuildRequest& request,
   }
   timing.rasterize_ms = built.to_grid_ms;
   map->grid = std::move(built.grid);
-  progress("collision index", 0.9);
-  if (request.unknown != UnknownHandling::kKeepUnknown) {
-    const mapping::VoxelState to = request.unknown == UnknownHandling::kAsOccupied
-                                       ? mapping::VoxelState::kOccupied
-                                       : mapping::VoxelState::kFree;
-    std::vector<mapping::VoxelState>& states = map->grid.mutable_states();
-    std::replace(states.begin(), states.end(), mapping::VoxelState::kUnknown, to);
-  }
   stats.geometry = map->grid.geometry();
-  stats.occupied_voxels = map->grid.Count(mapping::VoxelState::kOccupied);
-  stats.free_voxels = map->grid.Count(mapping::VoxelState::kFree);
-  stats.unknown_voxels = map->grid.Count(mapping::VoxelState::kUnknown);
+  stats.occupied_voxels = built.occupied_voxels;
+  stats.free_voxels = built.free_voxels;
+  stats.unknown_voxels = built.unknown_voxels;
+  progress("collision index", 0.9);
   map->query = std::make_unique<mapping::BoxQuery>(map->grid);
   MAV_RETURN_IF_ERROR(deadline.Check("BuildMap"));
   timing.build_ms = MsSince(start);

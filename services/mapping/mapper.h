@@ -92,8 +92,9 @@ struct KeyframeResult {
   double processing_ms = 0;     // rectification + both mappers' per-keyframe work
 };
 
-// How voxels that no ray or surface explained are labelled in a built grid.
-enum class UnknownHandling { kKeepUnknown, kAsOccupied, kAsFree };
+// How voxels that no ray or surface explained are labelled in a built grid (applied by
+// MappingPipeline::Build).
+using mapping::UnknownHandling;
 
 struct BuildRequest {
   MappingMethod method = MappingMethod::kSparseMesh;

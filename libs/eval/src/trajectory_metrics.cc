@@ -182,4 +182,25 @@ Result<double> EndPointError(const std::vector<geometry::SE3>& estimate,
   return (aligned.back().Translation() - ground_truth.back().Translation()).norm();
 }
 
+Result<TrajectoryAccuracy> EvaluateTrajectory(const std::vector<dataset::StampedPose>& estimate,
+                                              const std::vector<dataset::StampedPose>& ground_truth,
+                                              const RelativeErrorOptions& options) {
+  TrajectoryAccuracy out;
+  MAV_ASSIGN_OR_RETURN(out.associated, AssociateByTime(estimate, ground_truth));
+  const std::vector<geometry::SE3>& est = out.associated.estimate;
+  const std::vector<geometry::SE3>& gt = out.associated.ground_truth;
+  Result<RelativeError> relative = ComputeRelativeError(est, gt, options);
+  Result<double> ate = AbsoluteTrajectoryRmse(est, gt);
+  Result<double> end = EndPointError(est, gt);
+  if (!relative.ok() || !ate.ok() || !end.ok()) {
+    return Status::InvalidArgument("too few frames to evaluate (" + std::to_string(est.size()) +
+                                   ")");
+  }
+  out.relative = *std::move(relative);
+  out.ate_rmse_m = *ate;
+  out.end_point_error_m = *end;
+  out.path_length_m = PathLength(gt);
+  return out;
+}
+
 }  // namespace mav::eval

@@ -133,3 +133,53 @@ TEST(AssociateTest, InterpolatesGroundTruthAtEstimateTimes) {
 
 }  // namespace
 }  // namespace mav::eval
+
+namespace mav::eval {
+namespace {
+
+std::vector<dataset::StampedPose> Stamped(const std::vector<geometry::SE3>& poses, int64_t t0_ns) {
+  std::vector<dataset::StampedPose> out;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    out.push_back({t0_ns + static_cast<int64_t>(i) * 50'000'000, poses[i]});
+  }
+  return out;
+}
+
+std::vector<geometry::SE3> Straight(int n, double step_m) {
+  std::vector<geometry::SE3> poses;
+  for (int i = 0; i < n; ++i) {
+    poses.emplace_back(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i * step_m, 0, 0));
+  }
+  return poses;
+}
+
+TEST(EvaluateTrajectoryTest, GathersEveryFigureAtTheEstimatesFrames) {
+  const auto gt = Stamped(Straight(101, 1.0), 0);
+  // The estimate is 2 % too long and covers frames 10..100 only.
+  std::vector<geometry::SE3> est_poses;
+  for (int i = 10; i <= 100; ++i) {
+    est_poses.emplace_back(Eigen::Quaterniond::Identity(),
+                           Eigen::Vector3d(10 + (i - 10) * 1.02, 0, 0));
+  }
+  const auto est = Stamped(est_poses, 10 * 50'000'000);
+  Result<TrajectoryAccuracy> a = EvaluateTrajectory(est, gt, RelativeErrorOptions());
+  ASSERT_TRUE(a.ok()) << a.status().ToString();
+  EXPECT_EQ(a->associated.t_ns.size(), 91u);
+  EXPECT_EQ(a->associated.t_ns.front(), 10 * 50'000'000);
+  EXPECT_NEAR(a->path_length_m, 90.0, 1e-9);  // of the truth at the estimate's frames
+  ASSERT_TRUE(a->relative.average_pct.has_value());
+  EXPECT_NEAR(*a->relative.average_pct, 2.0, 1e-6);
+  EXPECT_NEAR(a->end_point_error_m, 90 * 0.02, 1e-9);
+  EXPECT_GT(a->ate_rmse_m, 0.0);
+}
+
+TEST(EvaluateTrajectoryTest, TooFewFramesNamesTheCount) {
+  const auto gt = Stamped(Straight(10, 1.0), 0);
+  const auto est = Stamped(Straight(2, 1.0), 0);
+  Result<TrajectoryAccuracy> a = EvaluateTrajectory(est, gt, RelativeErrorOptions());
+  ASSERT_FALSE(a.ok());
+  EXPECT_EQ(a.status().message(), "too few frames to evaluate (2)");
+}
+
+}  // namespace
+}  // namespace mav::eval

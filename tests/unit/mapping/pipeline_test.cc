@@ -268,6 +268,29 @@ TEST(MappingPipelineTest, ShortRoomPresetMeshBeatsOctomapBaseline) {
               without->Percent(without->missed_collision));
   // The check is there for the misses: it must not add any.
   EXPECT_LE(ours->missed_collision, without->missed_collision);
+
+  // The unknown voxels as the mapping service's BuildMap asks for them: counted, or made occupied
+  // or free before counting.
+  auto kept = pipeline->Build(MappingMethod::kOctomap, truth.geometry());
+  ASSERT_TRUE(kept.ok()) << kept.status().ToString();
+  EXPECT_GT(kept->unknown_voxels, 0);
+  EXPECT_EQ(kept->unknown_voxels, kept->grid.Count(VoxelState::kUnknown));
+  EXPECT_EQ(kept->occupied_voxels + kept->free_voxels + kept->unknown_voxels,
+            kept->grid.num_voxels());
+  BuildOptions unknown_options;
+  unknown_options.unknown = UnknownHandling::kAsOccupied;
+  auto as_occupied = pipeline->Build(MappingMethod::kOctomap, truth.geometry(), unknown_options);
+  ASSERT_TRUE(as_occupied.ok()) << as_occupied.status().ToString();
+  EXPECT_EQ(as_occupied->unknown_voxels, 0);
+  EXPECT_EQ(as_occupied->grid.Count(VoxelState::kUnknown), 0);
+  EXPECT_EQ(as_occupied->occupied_voxels, kept->occupied_voxels + kept->unknown_voxels);
+  EXPECT_EQ(as_occupied->free_voxels, kept->free_voxels);
+  unknown_options.unknown = UnknownHandling::kAsFree;
+  auto as_free = pipeline->Build(MappingMethod::kOctomap, truth.geometry(), unknown_options);
+  ASSERT_TRUE(as_free.ok()) << as_free.status().ToString();
+  EXPECT_EQ(as_free->unknown_voxels, 0);
+  EXPECT_EQ(as_free->free_voxels, kept->free_voxels + kept->unknown_voxels);
+  EXPECT_EQ(as_free->occupied_voxels, kept->occupied_voxels);
 }
 
 }  // namespace

@@ -79,4 +79,20 @@ Result<double> EndPointError(const std::vector<geometry::SE3>& estimate,
 // Total path length of the positions (metres).
 double PathLength(const std::vector<geometry::SE3>& poses);
 
+// Every figure of one estimated trajectory against the ground truth (the paper's Tables 1-2).
+struct TrajectoryAccuracy {
+  AssociatedTrajectories associated;  // the estimate's frames with the ground truth at them
+  RelativeError relative;
+  double ate_rmse_m = 0;
+  double end_point_error_m = 0;
+  double path_length_m = 0;  // of the ground truth at the estimate's frames
+};
+
+// AssociateByTime, then ComputeRelativeError, AbsoluteTrajectoryRmse, EndPointError and
+// PathLength. The association's error as it is; InvalidArgument "too few frames to evaluate
+// (N)" when the associated frames are too few for any of the figures.
+Result<TrajectoryAccuracy> EvaluateTrajectory(const std::vector<dataset::StampedPose>& estimate,
+                                              const std::vector<dataset::StampedPose>& ground_truth,
+                                              const RelativeErrorOptions& options);
+
 }  // namespace mav::eval

@@ -65,17 +65,18 @@ const char* MappingMethodName(MappingMethod method);  // "sparse-mesh", "octomap
 MeshToGridOptions MeshToGridOptionsFor(MapPreference preference);
 bool KeepUncheckedPointsFor(MapPreference preference);
 
-// The occlusion check of far single-view points (docs/mapping.md, "Occlusion check of far single-view points"). A point seen
-// by one keyframe only, from farther than `min_range_m`, has a depth too uncertain to trust on its
-// own (stereo depth noise grows as Z^2: a quarter pixel of disparity is ~3 cm at 2.5 m and ~12 cm
-// at 5 m on EuRoC's rig, against the mesher's 5 cm sink distance). Build() then meshes in two
-// passes: first the other points alone, rasterised like the map; a far single-view point whose
-// line of sight crosses an occupied voxel of that first grid more than `margin_m` before the point
-// was seen through a surface and is left out of the final mesh (PointsSeenThroughSurfaces,
-// mesh_to_grid.h; its line of sight still frees space up to the first surface, as every rejected
-// point's does). The others fill in what the first pass lacked. This removes the stereo mismatches
-// on room-hard's textureless ceiling, triangulated 0.2-1.4 m behind it, whose lines of sight
-// freed the slab: the missed collisions there fall from 0.78 / 0.59 % to 0.12 / 0.31 %.
+// The occlusion check of far single-view points (docs/mapping.md, "Occlusion check of far
+// single-view points"). A point seen by one keyframe only, from farther than `min_range_m`, has a
+// depth too uncertain to trust on its own (stereo depth noise grows as Z^2: a quarter pixel of
+// disparity is ~3 cm at 2.5 m and ~12 cm at 5 m on EuRoC's rig, against the mesher's 5 cm sink
+// distance). Build() then meshes in two passes: first the other points alone, rasterised like the
+// map; a far single-view point whose line of sight crosses an occupied voxel of that first grid
+// more than `margin_m` before the point was seen through a surface and is left out of the final
+// mesh (PointsSeenThroughSurfaces, mesh_to_grid.h; its line of sight still frees space up to the
+// first surface, as every rejected point's does). The others fill in what the first pass lacked.
+// This removes the stereo mismatches on room-hard's textureless ceiling, triangulated 0.2-1.4 m
+// behind it, whose lines of sight freed the slab: the missed collisions there fall from 0.78 / 0.59
+// % to 0.12 / 0.31 %.
 struct OcclusionCheckOptions {
   bool enabled = false;
   double min_range_m = 2.5;  // [m], > 0
@@ -166,6 +167,9 @@ struct MappingOutput {
   OctomapTiming octomap_timing;
 };
 
+// How a built grid labels the voxels that no ray or surface explained.
+enum class UnknownHandling { kKeepUnknown, kAsOccupied, kAsFree };
+
 // Options of one Build().
 struct BuildOptions {
   // Sparse mesh: the mesher's options (unset: the pipeline's) and the minimum number of keyframes
@@ -178,6 +182,9 @@ struct BuildOptions {
   std::optional<MeshToGridOptions> mesh_to_grid;
   std::optional<bool> keep_unchecked_points;
   std::optional<OcclusionCheckOptions> occlusion_check;
+  // Both methods: the unknown voxels of the built grid kept, or made occupied or free (the
+  // mapping service's BuildMapRequest.unknown).
+  UnknownHandling unknown = UnknownHandling::kKeepUnknown;
 
   // All four from a map preference (the mapping service's BuildMapRequest.prefer).
   static BuildOptions For(MapPreference preference);
@@ -188,7 +195,11 @@ struct BuildOptions {
 struct MethodMap {
   MappingMethod method = MappingMethod::kSparseMesh;
   int64_t keyframes = 0;
-  OccupancyGrid grid;  // on the geometry given to Build()
+  OccupancyGrid grid;  // on the geometry given to Build(), after BuildOptions::unknown
+  // The grid's voxels by state.
+  int64_t occupied_voxels = 0;
+  int64_t free_voxels = 0;
+  int64_t unknown_voxels = 0;
 
   // Sparse mesh only.
   std::vector<MapPoint> points;              // the points meshed (after min_visibility and the
@@ -247,9 +258,10 @@ class MappingPipeline {
   // called again. FailedPrecondition without keyframes, for a method the pipeline does not run,
   // or with fewer than 4 points to mesh ("empty map: ..."); InvalidArgument naming the field
   // ("geometry: ...", "meshing.<f>: ..."); the mesher's errors with "sparse-mesh: " in front.
-  // `termination` is checked between the stages (DEADLINE_EXCEEDED / CANCELLED: nothing is
-  // kept); `progress` reports "occlusion check" (0.05, only when it runs), "meshing" (0.1), "mesh
-  // to grid" (0.7), "octree to grid" (0.2).
+  // The grid's unknown voxels are then handled as options.unknown says and its voxels counted
+  // (the mapping service publishes this grid as it is). `termination` is checked between the
+  // stages (DEADLINE_EXCEEDED / CANCELLED: nothing is kept); `progress` reports "occlusion check"
+  // (0.05, only when it runs), "meshing" (0.1), "mesh to grid" (0.7), "octree to grid" (0.2).
   Result<MethodMap> Build(MappingMethod method, const GridGeometry& geometry,
                           const BuildOptions& options = {}, const Termination& termination = {},
                           const ProgressCallback& progress = {});

@@ -1,12 +1,28 @@
-#include "paper.h"
+#include "mav/eval/paper_figures.h"
 
-namespace mav::eval_cli {
+#include <fstream>
+
+namespace mav::eval {
 
 std::optional<int> PaperDataSetIndex(const std::string& preset) {
   if (preset == "room-easy") return 0;
   if (preset == "room-medium") return 1;
   if (preset == "room-hard") return 2;
   return std::nullopt;
+}
+
+std::string ReadPresetName(const std::string& data) {
+  std::ifstream in(data + "/ground_truth/scenario.yaml");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("preset:", 0) == 0) {
+      std::string value = line.substr(7);
+      value.erase(0, value.find_first_not_of(" \"'"));
+      value.erase(value.find_last_not_of(" \"'\r") + 1);
+      return value;
+    }
+  }
+  return "";
 }
 
 const std::array<PaperLocalizationRow, 3>& PaperLocalization() {
@@ -42,4 +58,4 @@ const PaperControlFigures& PaperControl() {
   return kFigures;
 }
 
-}  // namespace mav::eval_cli
+}  // namespace mav::eval

@@ -1,11 +1,13 @@
-#include "json.h"
+#include "mav/eval/report.h"
 
-#include <cmath>
+#include <algorithm>
+#include <cstdarg>
 #include <cstdio>
 
 #include "mav/common/file.h"
+#include "mav/common/text.h"
 
-namespace mav::eval_cli {
+namespace mav::eval {
 
 namespace {
 
@@ -65,4 +67,42 @@ Status JsonReport::WriteFile(const std::string& path) const {
   return WriteStringToFileAtomic(path, ToString());
 }
 
-}  // namespace mav::eval_cli
+ReportTable& Report::AddTable(std::string title, bool blank_line_before) {
+  ReportTable& table = tables.emplace_back();
+  table.title = std::move(title);
+  table.blank_line_before = blank_line_before;
+  return table;
+}
+
+std::string ReportText(const Report& report) {
+  std::string out;
+  for (const ReportTable& table : report.tables) {
+    if (table.blank_line_before) out += "\n";
+    if (!table.title.empty()) out += table.title + "\n";
+    for (const auto* lines : {&table.header, &table.rows, &table.notes}) {
+      for (const std::string& line : *lines) out += line + "\n";
+    }
+  }
+  return out;
+}
+
+Status WriteReportJson(const Report& report, const std::string& path) {
+  if (!report.json_document.empty()) return WriteStringToFileAtomic(path, report.json_document);
+  return report.json.WriteFile(path);
+}
+
+std::string FormatLine(const char* format, ...) {
+  va_list args;
+  va_start(args, format);
+  va_list copy;
+  va_copy(copy, args);
+  const int n = std::vsnprintf(nullptr, 0, format, copy);
+  va_end(copy);
+  std::string out(static_cast<size_t>(std::max(n, 0)) + 1, '\0');
+  std::vsnprintf(out.data(), out.size(), format, args);
+  va_end(args);
+  out.resize(static_cast<size_t>(std::max(n, 0)));
+  return out;
+}
+
+}  // namespace mav::eval

@@ -6,11 +6,15 @@
 #include <optional>
 #include <string>
 
-namespace mav::eval_cli {
+namespace mav::eval {
 
 // Data sets 1..3 of the paper correspond to our room-easy, room-medium, room-hard presets.
 // Returns 0-based index, or nullopt for other data.
 std::optional<int> PaperDataSetIndex(const std::string& preset);
+
+// The preset name of a data set mav-sim generated: `preset:` of <data>/ground_truth/scenario.yaml;
+// empty when the file or the key is absent (recorded data).
+std::string ReadPresetName(const std::string& data);
 
 struct PaperLocalizationRow {
   const char* method;  // our method name
@@ -54,4 +58,4 @@ struct PaperControlFigures {
 
 const PaperControlFigures& PaperControl();
 
-}  // namespace mav::eval_cli
+}  // namespace mav::eval

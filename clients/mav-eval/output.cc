@@ -1,0 +1,31 @@
+#include "output.h"
+
+#include <cstdio>
+#include <iostream>
+
+namespace mav::eval_cli {
+
+int Fail(const std::string& command, const std::string& message, int code) {
+  std::cerr << command << ": " << message << "\n";
+  return code;
+}
+
+Status PrintReport(const eval::Report& report, const std::string& json_path) {
+  std::fputs(eval::ReportText(report).c_str(), stdout);
+  std::fflush(stdout);
+  if (json_path.empty()) return Status::Ok();
+  return eval::WriteReportJson(report, json_path);
+}
+
+eval::StepProgress ProgressPrinter::Callback() {
+  return [bar = bar_](std::string_view stage, int64_t done, int64_t total) {
+    if (*bar == nullptr) *bar = std::make_unique<ProgressBar>(std::string(stage), total);
+    (*bar)->Update(done);
+    if (done >= total) {
+      (*bar)->Finish();
+      bar->reset();
+    }
+  };
+}
+
+}  // namespace mav::eval_cli

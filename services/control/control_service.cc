@@ -82,7 +82,7 @@ ControlService::ControlService(ControlCore* core, InputControl* input,
     : core_(core), input_(input), options_(options) {}
 
 void ControlService::FillStatus(v1::ControlStatus* response) {
-  ToProto(core_->GetStatus(), input_ != nullptr && input_->input(), response);
+  ToProto(core_->GetStatus(), input_ != nullptr && input_->input_enabled(), response);
 }
 
 grpc::Status ControlService::ApplyConfigure(const v1::ControlConfigureRequest& request,

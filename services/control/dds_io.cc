@@ -102,7 +102,7 @@ uint32_t DdsIo::ActuatorSubscribers() {
   return n.ok() ? *n : 0;
 }
 
-bool DdsIo::input() const {
+bool DdsIo::input_enabled() const {
   std::lock_guard<std::mutex> lock(control_mutex_);
   return imu_reader_.has_value();
 }

@@ -27,6 +27,7 @@
 #include "mav/transport/dds.h"
 #include "mav/transport/dds_read_loop.h"
 #include "services/common/dds_codec.h"
+#include "services/common/input_control.h"
 #include "services/control/control_core.h"
 
 namespace mav::control_service {
@@ -45,13 +46,7 @@ struct PoseInput {
 // InvalidArgument naming the field for a pose that cannot be used.
 Result<PoseInput> FromDds(const mav_dds_PoseWithCovariance& pose);
 
-// Switches the live input on and off (DDS in production; a fake in contract tests).
-class InputControl {
- public:
-  virtual ~InputControl() = default;
-  virtual Status SetInput(bool enabled) = 0;
-  virtual bool input() const = 0;
-};
+using service_common::InputControl;
 
 class DdsIo : public CommandSink, public InputControl {
  public:
@@ -65,7 +60,7 @@ class DdsIo : public CommandSink, public InputControl {
   Status PublishCommand(const ActuatorOutput& command) override;
   uint32_t ActuatorSubscribers() override;
   Status SetInput(bool enabled) override;
-  bool input() const override;
+  bool input_enabled() const override;
 
   uint64_t imu_received() const { return imu_received_.load(); }
   uint64_t poses_received() const { return poses_received_.load(); }

@@ -62,7 +62,7 @@ uint32_t DdsIo::PoseSubscribers() {
   return n.ok() ? *n : 0;
 }
 
-bool DdsIo::stereo_input() const {
+bool DdsIo::input_enabled() const {
   std::lock_guard<std::mutex> lock(control_mutex_);
   return stereo_reader_.has_value();
 }
@@ -73,7 +73,7 @@ void DdsIo::StopReaderLocked() {
   imu_reader_.reset();
 }
 
-Status DdsIo::SetStereoInput(bool enabled) {
+Status DdsIo::SetInput(bool enabled) {
   std::lock_guard<std::mutex> lock(control_mutex_);
   if (enabled == stereo_reader_.has_value()) return Status::Ok();
   if (enabled && localizer_ == nullptr) {

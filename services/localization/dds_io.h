@@ -25,6 +25,7 @@
 #include "mav/transport/dds.h"
 #include "mav/transport/dds_read_loop.h"
 #include "services/common/dds_codec.h"
+#include "services/common/input_control.h"
 #include "services/localization/localizer.h"
 
 namespace mav::localization_service {
@@ -36,26 +37,20 @@ using service_common::StereoCrc32;
 mav_dds_PoseWithCovariance ToDds(uint64_t sequence, const RigPose& pose, OutputFrame frame,
                                  int64_t publish_t_ns);
 
-// Switches the live stereo input on and off (DDS in production; absent in contract tests).
-class InputControl {
- public:
-  virtual ~InputControl() = default;
-  virtual Status SetStereoInput(bool enabled) = 0;
-  virtual bool stereo_input() const = 0;
-};
+using service_common::InputControl;
 
 class DdsIo : public PoseSink, public InputControl {
  public:
   static Result<std::unique_ptr<DdsIo>> Create(const transport::DdsOptions& options);
   ~DdsIo() override;
 
-  // The localizer that receives live frames (not owned). Call once, before SetStereoInput(true);
-  // stop the input (SetStereoInput(false)) before the localizer is destroyed.
+  // The localizer that receives live frames (not owned). Call once, before SetInput(true);
+  // stop the input (SetInput(false)) before the localizer is destroyed.
   void Attach(Localizer* localizer) { localizer_ = localizer; }
 
   Status PublishPose(const RigPose& pose, OutputFrame frame) override;
-  Status SetStereoInput(bool enabled) override;
-  bool stereo_input() const override;
+  Status SetInput(bool enabled) override;
+  bool input_enabled() const override;
 
   uint64_t frames_received() const { return frames_received_.load(); }
   uint64_t imu_samples_received() const { return imu_received_.load(); }
@@ -80,7 +75,7 @@ class DdsIo : public PoseSink, public InputControl {
   PoseTopic pose_topic_;
   transport::Writer<mav_dds_PoseWithCovariance> pose_writer_;
 
-  mutable std::mutex control_mutex_;  // serialises SetStereoInput
+  mutable std::mutex control_mutex_;  // serialises SetInput
   std::optional<transport::Reader<mav_dds_StereoFrame>> stereo_reader_;
   std::optional<transport::Reader<mav_dds_ImuSample>> imu_reader_;
   std::optional<transport::DdsReadLoop> read_loop_;

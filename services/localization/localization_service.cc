@@ -42,7 +42,7 @@ LocalizationService::LocalizationService(Localizer* localizer, InputControl* inp
 
 void LocalizationService::FillStatus(v1::LocalizationStatus* response) {
   const LocalizerStatus status = localizer_->GetStatus();
-  ToProto(status, input_ != nullptr && input_->stereo_input(), response);
+  ToProto(status, input_ != nullptr && input_->input_enabled(), response);
 }
 
 grpc::Status LocalizationService::ApplyConfigure(const v1::LocalizationConfigureRequest& request,
@@ -60,7 +60,7 @@ grpc::Status LocalizationService::ApplyConfigure(const v1::LocalizationConfigure
   config->odometry.calibration_rectified = rig->rectified;
   if (Status s = localizer_->Configure(*config, deadline); !s.ok()) return ToGrpcStatus(s);
   if (input_ != nullptr) {
-    const Status input = input_->SetStereoInput(!request.disable_dds_input());
+    const Status input = input_->SetInput(!request.disable_dds_input());
     if (!input.ok()) return ToGrpcStatus(input);
   }
   FillStatus(response);

@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
     }
   }
   return runner.Serve({&service}, {mav::v1::Localization::service_full_name()}, [&] {
-    (void)(*dds)->SetStereoInput(false);
+    (void)(*dds)->SetInput(false);
     localizer.Shutdown();
     MAV_LOG(kInfo) << "received " << (*dds)->frames_received() << " stereo frames and "
                    << (*dds)->imu_samples_received() << " IMU samples, published "

@@ -71,10 +71,14 @@ void DdsIo::StopReaderLocked() {
   pose_reader_.reset();
 }
 
-Status DdsIo::SetInput(bool enabled, PoseSource source) {
+Status DdsIo::SetInput(bool enabled) {
   std::lock_guard<std::mutex> lock(control_mutex_);
   if (enabled && mapper_ == nullptr) return Status::FailedPrecondition("DDS input: no mapper");
-  // Always rebuilt on enable: the pose source may have changed.
+  const std::optional<SessionConfig> session =
+      mapper_ != nullptr ? mapper_->config() : std::nullopt;
+  if (enabled && !session) return Status::FailedPrecondition("DDS input: no session");
+  const PoseSource source = session ? session->pose_source : PoseSource::kNone;
+  // Always rebuilt on enable: the session's pose source may have changed.
   StopReaderLocked();
   if (!enabled) {
     MAV_LOG(kInfo) << "DDS input off (" << frames_received_.load() << " frames, "

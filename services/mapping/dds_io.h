@@ -25,6 +25,7 @@
 
 #include "mav/transport/dds.h"
 #include "mav/transport/dds_read_loop.h"
+#include "services/common/input_control.h"
 #include "services/mapping/mapper.h"
 
 namespace mav::mapping_service {
@@ -37,14 +38,7 @@ Result<geometry::SE3> PoseFromDds(const mav_dds_GroundTruthState& state);
 Result<std::optional<geometry::SE3>> BodyPoseFromDds(const mav_dds_PoseWithCovariance& pose,
                                                      const geometry::SE3& T_body_cam0);
 
-// Switches the live input on and off (DDS in production; absent in contract tests).
-class InputControl {
- public:
-  virtual ~InputControl() = default;
-  // enabled: subscribe to the stereo frames and to the poses of `source` (kNone: stereo only).
-  virtual Status SetInput(bool enabled, PoseSource source) = 0;
-  virtual bool input_enabled() const = 0;
-};
+using service_common::InputControl;
 
 class DdsIo : public InputControl {
  public:
@@ -55,7 +49,9 @@ class DdsIo : public InputControl {
   // switch the input off before the mapper is destroyed.
   void Attach(Mapper* mapper) { mapper_ = mapper; }
 
-  Status SetInput(bool enabled, PoseSource source) override;
+  // enabled: subscribes to the stereo frames and to the poses of the mapper's session (its
+  // pose source; kNone: stereo only).
+  Status SetInput(bool enabled) override;
   bool input_enabled() const override;
 
   uint64_t frames_received() const { return frames_received_.load(); }

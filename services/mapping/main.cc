@@ -66,7 +66,7 @@ int main(int argc, char** argv) {
     }
   }
   return runner.Serve({&service}, {mav::v1::Mapping::service_full_name()}, [&] {
-    (void)(*dds)->SetInput(false, mav::mapping_service::PoseSource::kNone);
+    (void)(*dds)->SetInput(false);
     mapper.Shutdown();
     MAV_LOG(kInfo) << "received " << (*dds)->frames_received() << " stereo frames and "
                    << (*dds)->poses_received() << " poses";

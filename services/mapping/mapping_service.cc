@@ -83,7 +83,7 @@ grpc::Status MappingService::ApplyStartSession(const v1::StartSessionRequest& re
   if (!started.ok()) return ToGrpcStatus(started);
   if (input_ != nullptr) {
     const bool dds = !request.disable_dds_input() && config->pose_source != PoseSource::kNone;
-    const Status input = input_->SetInput(dds, config->pose_source);
+    const Status input = input_->SetInput(dds);
     if (!input.ok()) return ToGrpcStatus(input);
   }
   ToProto(mapper_->GetStatus(), response);

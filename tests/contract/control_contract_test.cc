@@ -72,7 +72,7 @@ class FakeInput : public InputControl {
     enabled_ = enabled;
     return Status::Ok();
   }
-  bool input() const override { return enabled_; }
+  bool input_enabled() const override { return enabled_; }
 
  private:
   bool enabled_ = false;

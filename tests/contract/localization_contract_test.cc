@@ -139,11 +139,11 @@ class RecordingSink : public PoseSink {
 
 class FakeInput : public InputControl {
  public:
-  Status SetStereoInput(bool enabled) override {
+  Status SetInput(bool enabled) override {
     enabled_ = enabled;
     return Status::Ok();
   }
-  bool stereo_input() const override { return enabled_; }
+  bool input_enabled() const override { return enabled_; }
 
  private:
   bool enabled_ = false;
@@ -430,7 +430,7 @@ TEST_F(LocalizationContractTest, ConfigureReportsTheEffectiveConfiguration) {
   EXPECT_EQ(status.state(), v1::LOCALIZATION_SERVICE_STATE_READY);
   EXPECT_EQ(status.method(), v1::LOCALIZATION_METHOD_SPARSE_SUBPIXEL);
   EXPECT_TRUE(status.dds_input());
-  EXPECT_TRUE(input_.stereo_input());
+  EXPECT_TRUE(input_.input_enabled());
   const v1::LocalizationConfigureRequest& config = status.config();
   EXPECT_EQ(config.sparse().ransac_iterations(), 300u);
   EXPECT_DOUBLE_EQ(config.sparse().gyro_rotation_sigma_rad(), 1e-4);
@@ -454,7 +454,7 @@ TEST_F(LocalizationContractTest, ConfigureReportsTheEffectiveConfiguration) {
   EXPECT_DOUBLE_EQ(status.config().t_body_imu().orientation().x(), 0.5);
   EXPECT_EQ(status.method(), v1::LOCALIZATION_METHOD_DENSE);
   EXPECT_FALSE(status.dds_input());
-  EXPECT_FALSE(input_.stereo_input());
+  EXPECT_FALSE(input_.input_enabled());
   EXPECT_TRUE(status.config().disable_dds_input());
   EXPECT_EQ(status.config().queue_length(), 5u);
   EXPECT_GT(status.config().dense().pyramid_levels(), 0u);

@@ -55,21 +55,17 @@ class NullCommandSink : public control_service::CommandSink {
  public:
   Status PublishCommand(const control_service::ActuatorOutput&) override { return Status::Ok(); }
 };
-class NullControlInput : public control_service::InputControl {
+// The live input the services switch (DDS in production): never on here.
+class NullInput : public service_common::InputControl {
  public:
   Status SetInput(bool) override { return Status::Ok(); }
-  bool input() const override { return false; }
+  bool input_enabled() const override { return false; }
 };
 class NullPoseSink : public localization_service::PoseSink {
  public:
   Status PublishPose(const localization_service::RigPose&, localization::OutputFrame) override {
     return Status::Ok();
   }
-};
-class NullLocalizationInput : public localization_service::InputControl {
- public:
-  Status SetStereoInput(bool) override { return Status::Ok(); }
-  bool stereo_input() const override { return false; }
 };
 
 // The four services that take shared messages, each behind its own in-process server.
@@ -127,9 +123,9 @@ class SharedMessagesTest : public ::testing::Test {
   }
 
   NullCommandSink command_sink_;
-  NullControlInput control_input_;
+  NullInput control_input_;
   NullPoseSink pose_sink_;
-  NullLocalizationInput localization_input_;
+  NullInput localization_input_;
   std::unique_ptr<planning_service::PlannerCore> planner_;
   std::unique_ptr<planning_service::PlanningService> planning_;
   std::unique_ptr<control_service::ControlCore> control_core_;

@@ -27,6 +27,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -105,74 +106,101 @@ struct Tally {
   uint64_t error_count = 0;
 };
 
-int RunPlanning(const std::vector<std::string>& args) {
-  std::string address = "127.0.0.1:50054", queries_path, map_path, save_path;
-  int64_t concurrency = 4, count = 30;
-  double duration_s = 10, deadline_ms = 1000, max_p99_ms = 0, robot_radius = 0.5;
+struct PlanningOptions {
+  std::string address = "127.0.0.1:50054";
+  std::string queries_path;
+  std::string map_path;
+  std::string save_path;
+  int64_t concurrency = 4;
+  int64_t count = 30;
+  double duration_s = 10;
+  double deadline_ms = 1000;
+  double max_p99_ms = 0;
+  double robot_radius = 0.5;
   uint64_t seed = 1;
-  bool fail_on_errors = false, require_success = false;
+  bool fail_on_errors = false;
+  bool require_success = false;
+};
+
+// Parses and checks the flags of `planning`. Returns the exit code when the command is finished
+// (--help printed, or a usage error), std::nullopt when it should go on.
+std::optional<int> ParsePlanningOptions(const std::vector<std::string>& args, PlanningOptions* o) {
   mav::FlagParser flags(kUsage);
-  flags.AddString("address", &address, "the mav-planning server, host:port");
-  flags.AddInt("concurrency", &concurrency, "client threads calling at once");
-  flags.AddDouble("duration", &duration_s, "how long to call, s");
-  flags.AddString("queries", &queries_path, "query file (sx sy sz gx gy gz [waypoints], #)");
-  flags.AddString("map", &map_path, "without --queries: draw queries on this .bt (the server's)");
-  flags.AddUint64("seed", &seed, "seed of the drawn queries");
-  flags.AddInt("count", &count, "number of drawn queries");
-  flags.AddDouble("robot-radius", &robot_radius, "robot radius of the drawn queries, m");
-  flags.AddString("save-queries", &save_path, "write the queries used to FILE (--queries format)");
-  flags.AddDouble("deadline-ms", &deadline_ms, "deadline of each call, ms");
-  flags.AddBool("fail-on-errors", &fail_on_errors, "exit 1 on any RPC error");
-  flags.AddBool("require-success", &require_success, "exit 1 on any reply other than SUCCESS");
-  flags.AddDouble("max-p99-ms", &max_p99_ms, "exit 1 when p99 exceeds this (0 = no bound)");
+  flags.AddString("address", &o->address, "the mav-planning server, host:port");
+  flags.AddInt("concurrency", &o->concurrency, "client threads calling at once");
+  flags.AddDouble("duration", &o->duration_s, "how long to call, s");
+  flags.AddString("queries", &o->queries_path, "query file (sx sy sz gx gy gz [waypoints], #)");
+  flags.AddString("map", &o->map_path,
+                  "without --queries: draw queries on this .bt (the server's)");
+  flags.AddUint64("seed", &o->seed, "seed of the drawn queries");
+  flags.AddInt("count", &o->count, "number of drawn queries");
+  flags.AddDouble("robot-radius", &o->robot_radius, "robot radius of the drawn queries, m");
+  flags.AddString("save-queries", &o->save_path,
+                  "write the queries used to FILE (--queries format)");
+  flags.AddDouble("deadline-ms", &o->deadline_ms, "deadline of each call, ms");
+  flags.AddBool("fail-on-errors", &o->fail_on_errors, "exit 1 on any RPC error");
+  flags.AddBool("require-success", &o->require_success, "exit 1 on any reply other than SUCCESS");
+  flags.AddDouble("max-p99-ms", &o->max_p99_ms, "exit 1 when p99 exceeds this (0 = no bound)");
   bool help = false;
   if (mav::Status s = flags.Parse(args, nullptr, &help); !s.ok()) return Usage(s.message());
   if (help) {
     std::cout << flags.Help();
     return 0;
   }
-  if (concurrency < 1 || concurrency > 1024) return Usage("--concurrency: must be in [1, 1024]");
-  if (!(duration_s > 0) || duration_s > 86400) return Usage("--duration: must be in (0, 86400] s");
-  if (!(deadline_ms > 0) || !std::isfinite(deadline_ms)) return Usage("--deadline-ms: must be > 0");
-  if (!(max_p99_ms >= 0) || !std::isfinite(max_p99_ms)) return Usage("--max-p99-ms: must be >= 0");
-  if (queries_path.empty() == map_path.empty()) {
+  if (o->concurrency < 1 || o->concurrency > 1024) {
+    return Usage("--concurrency: must be in [1, 1024]");
+  }
+  if (!(o->duration_s > 0) || o->duration_s > 86400) {
+    return Usage("--duration: must be in (0, 86400] s");
+  }
+  if (!(o->deadline_ms > 0) || !std::isfinite(o->deadline_ms)) {
+    return Usage("--deadline-ms: must be > 0");
+  }
+  if (!(o->max_p99_ms >= 0) || !std::isfinite(o->max_p99_ms)) {
+    return Usage("--max-p99-ms: must be >= 0");
+  }
+  if (o->queries_path.empty() == o->map_path.empty()) {
     return Usage("give exactly one of --queries FILE or --map FILE.bt");
   }
-  if (count < 1 || count > 100000) return Usage("--count: must be in [1, 100000]");
+  if (o->count < 1 || o->count > 100000) return Usage("--count: must be in [1, 100000]");
+  return std::nullopt;
+}
 
+// The queries of --queries, or those drawn on --map. An error's message is the whole text after
+// "mav-load: ".
+mav::Result<std::vector<std::vector<Eigen::Vector3d>>> LoadQueries(const PlanningOptions& o) {
   std::vector<std::vector<Eigen::Vector3d>> queries;
-  if (!queries_path.empty()) {
-    auto read = mav::dataset::ReadPlanningQueries(queries_path);
-    if (!read.ok()) {
-      std::cerr << "mav-load: " << read.status().message() << "\n";
-      return 1;
-    }
-    for (const auto& q : *read) queries.push_back(q.points);
-  } else {
-    std::string error;
-    queries = RandomSet(map_path, seed, count, robot_radius, &error);
-    if (queries.empty()) {
-      std::cerr << "mav-load: --map: " << (error.empty() ? "no queries drawn" : error) << "\n";
-      return 1;
-    }
+  if (!o.queries_path.empty()) {
+    MAV_ASSIGN_OR_RETURN(const auto read, mav::dataset::ReadPlanningQueries(o.queries_path));
+    for (const auto& q : read) queries.push_back(q.points);
+    return queries;
   }
-  if (!save_path.empty()) {
-    std::string text = "# sx sy sz [waypoints] gx gy gz (mav-load planning --save-queries)\n";
-    char number[32];
-    for (const auto& points : queries) {
-      for (const Eigen::Vector3d& p : points) {
-        for (int a = 0; a < 3; ++a) {
-          std::snprintf(number, sizeof(number), "%.4f ", p[a]);
-          text += number;
-        }
+  std::string error;
+  queries = RandomSet(o.map_path, o.seed, o.count, o.robot_radius, &error);
+  if (queries.empty()) {
+    return mav::Status::InvalidArgument("--map: " + (error.empty() ? "no queries drawn" : error));
+  }
+  return queries;
+}
+
+mav::Status SaveQueries(const std::string& path,
+                        const std::vector<std::vector<Eigen::Vector3d>>& queries) {
+  std::string text = "# sx sy sz [waypoints] gx gy gz (mav-load planning --save-queries)\n";
+  char number[32];
+  for (const auto& points : queries) {
+    for (const Eigen::Vector3d& p : points) {
+      for (int a = 0; a < 3; ++a) {
+        std::snprintf(number, sizeof(number), "%.4f ", p[a]);
+        text += number;
       }
-      text.back() = '\n';
     }
-    if (mav::Status s = mav::WriteStringToFileAtomic(save_path, text); !s.ok()) {
-      std::cerr << "mav-load: " << s.message() << "\n";
-      return 1;
-    }
+    text.back() = '\n';
   }
+  return mav::WriteStringToFileAtomic(path, text);
+}
+
+std::vector<mav::v1::PlanPathRequest> MakeRequests(
+    const std::vector<std::vector<Eigen::Vector3d>>& queries) {
   std::vector<mav::v1::PlanPathRequest> requests;
   for (const auto& points : queries) {
     mav::v1::PlanPathRequest r;
@@ -181,67 +209,70 @@ int RunPlanning(const std::vector<std::string>& args) {
     for (size_t i = 1; i + 1 < points.size(); ++i) SetPoint(points[i], r.add_waypoints());
     requests.push_back(r);
   }
+  return requests;
+}
 
-  auto channel = grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
-  if (!channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(5))) {
-    std::cerr << "mav-load: cannot connect to " << address << "\n";
-    return 1;
-  }
-  std::printf("mav-load planning: %s, concurrency %lld, %.1f s, %zu queries, deadline %.0f ms\n",
-              address.c_str(), static_cast<long long>(concurrency), duration_s, requests.size(),
-              deadline_ms);
-  std::fflush(stdout);
-
-  Tally tally;
+// What the client threads share: the requests to cycle through, the next one's index, when to
+// stop, and the tally they add to.
+struct Load {
+  std::shared_ptr<grpc::Channel> channel;
+  std::vector<mav::v1::PlanPathRequest> requests;
+  double deadline_ms = 0;
+  int64_t end_ns = 0;
   std::atomic<uint64_t> next{0};
-  const int64_t start_ns = mav::MonotonicNowNs();
-  const int64_t end_ns = start_ns + mav::SecondsToNs(duration_s);
-  std::vector<std::thread> workers;
-  for (int64_t w = 0; w < concurrency; ++w) {
-    workers.emplace_back([&] {
-      auto stub = mav::v1::Planning::NewStub(channel);
-      while (mav::MonotonicNowNs() < end_ns) {
-        const mav::v1::PlanPathRequest& request = requests[next.fetch_add(1) % requests.size()];
-        grpc::ClientContext context;
-        context.set_deadline(std::chrono::system_clock::now() +
-                             std::chrono::microseconds(static_cast<int64_t>(deadline_ms * 1e3)));
-        mav::v1::PlanPathResponse response;
-        const int64_t call_ns = mav::MonotonicNowNs();
-        const grpc::Status status = stub->PlanPath(&context, request, &response);
-        const double ms = mav::MsSince(call_ns);
-        {
-          std::lock_guard<std::mutex> lock(tally.mutex);
-          ++tally.calls;
-          if (status.ok()) {
-            tally.latencies_ms.push_back(ms);
-            ++tally.replies[PlanStatusName(response.status())];
-            continue;
-          }
-          ++tally.error_count;
-          ++tally.errors[mav::service_common::GrpcCodeName(status.error_code())];
-          if (tally.first_error.empty()) {
-            tally.first_error =
-                std::string(mav::service_common::GrpcCodeName(status.error_code())) + ": " +
-                status.error_message();
-          }
-        }
-        // A refused client pauses instead of spinning on the server's cores.
-        std::this_thread::sleep_for(std::chrono::milliseconds(1));
-      }
-    });
+  Tally tally;
+};
+
+void Record(const grpc::Status& status, const mav::v1::PlanPathResponse& response, double ms,
+            Tally* tally) {
+  std::lock_guard<std::mutex> lock(tally->mutex);
+  ++tally->calls;
+  if (status.ok()) {
+    tally->latencies_ms.push_back(ms);
+    ++tally->replies[PlanStatusName(response.status())];
+    return;
   }
-  // A line per second: the calls of that second, percentiles of all answered calls so far.
+  ++tally->error_count;
+  ++tally->errors[mav::service_common::GrpcCodeName(status.error_code())];
+  if (tally->first_error.empty()) {
+    tally->first_error = std::string(mav::service_common::GrpcCodeName(status.error_code())) +
+                         ": " + status.error_message();
+  }
+}
+
+// One client thread: calls back to back until the end of the run.
+void CallUntilEnd(Load* load) {
+  auto stub = mav::v1::Planning::NewStub(load->channel);
+  while (mav::MonotonicNowNs() < load->end_ns) {
+    const mav::v1::PlanPathRequest& request =
+        load->requests[load->next.fetch_add(1) % load->requests.size()];
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() +
+                         std::chrono::microseconds(static_cast<int64_t>(load->deadline_ms * 1e3)));
+    mav::v1::PlanPathResponse response;
+    const int64_t call_ns = mav::MonotonicNowNs();
+    const grpc::Status status = stub->PlanPath(&context, request, &response);
+    const double ms = mav::MsSince(call_ns);
+    Record(status, response, ms, &load->tally);
+    // A refused client pauses instead of spinning on the server's cores.
+    if (!status.ok()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+// A line per second until the end: the calls of that second, percentiles of all answered calls
+// so far.
+void PrintProgress(int64_t start_ns, Load* load) {
   uint64_t last_calls = 0;
-  for (int second = 1; mav::MonotonicNowNs() < end_ns; ++second) {
-    const int64_t wake_ns = std::min(end_ns, start_ns + second * mav::kNsPerSecond);
+  for (int second = 1; mav::MonotonicNowNs() < load->end_ns; ++second) {
+    const int64_t wake_ns = std::min(load->end_ns, start_ns + second * mav::kNsPerSecond);
     std::this_thread::sleep_for(std::chrono::nanoseconds(wake_ns - mav::MonotonicNowNs()));
     std::vector<double> so_far;
     uint64_t calls = 0, errors = 0;
     {
-      std::lock_guard<std::mutex> lock(tally.mutex);
-      so_far = tally.latencies_ms;
-      calls = tally.calls;
-      errors = tally.error_count;
+      std::lock_guard<std::mutex> lock(load->tally.mutex);
+      so_far = load->tally.latencies_ms;
+      calls = load->tally.calls;
+      errors = load->tally.error_count;
     }
     const mav::RuntimeStats s = mav::SummarizeRuntimes(std::move(so_far));
     std::printf("[%3d s] %6llu calls/s   p50 %7.2f ms   p99 %7.2f ms   errors %llu\n", second,
@@ -250,10 +281,9 @@ int RunPlanning(const std::vector<std::string>& args) {
     std::fflush(stdout);
     last_calls = calls;
   }
-  for (std::thread& t : workers) t.join();
-  const double elapsed_s = mav::SecondsSince(start_ns);
+}
 
-  const mav::RuntimeStats s = mav::SummarizeRuntimes(tally.latencies_ms);
+void PrintTotals(const Tally& tally, double elapsed_s, const mav::RuntimeStats& s) {
   std::printf("\ncalls:    %llu in %.2f s = %.1f calls/s (%zu answered = %.1f /s)\n",
               static_cast<unsigned long long>(tally.calls), elapsed_s,
               static_cast<double>(tally.calls) / elapsed_s, tally.latencies_ms.size(),
@@ -272,20 +302,23 @@ int RunPlanning(const std::vector<std::string>& args) {
   }
   std::printf("\n");
   if (!tally.first_error.empty()) std::printf("first error: %s\n", tally.first_error.c_str());
+}
 
+// The exit status: 1 when any of the conditions asked for failed (each is printed), else 0.
+int Verdict(const PlanningOptions& o, const Tally& tally, const mav::RuntimeStats& s) {
   int rc = 0;
-  if (fail_on_errors && tally.error_count > 0) {
+  if (o.fail_on_errors && tally.error_count > 0) {
     std::printf("FAIL: %llu errors\n", static_cast<unsigned long long>(tally.error_count));
     rc = 1;
   }
   const uint64_t successes = tally.replies.count("SUCCESS") ? tally.replies.at("SUCCESS") : 0;
-  if (require_success && successes != tally.latencies_ms.size()) {
+  if (o.require_success && successes != tally.latencies_ms.size()) {
     std::printf("FAIL: %llu replies other than SUCCESS\n",
                 static_cast<unsigned long long>(tally.latencies_ms.size() - successes));
     rc = 1;
   }
-  if (max_p99_ms > 0 && s.p99_ms > max_p99_ms) {
-    std::printf("FAIL: p99 %.2f ms above --max-p99-ms %.2f\n", s.p99_ms, max_p99_ms);
+  if (o.max_p99_ms > 0 && s.p99_ms > o.max_p99_ms) {
+    std::printf("FAIL: p99 %.2f ms above --max-p99-ms %.2f\n", s.p99_ms, o.max_p99_ms);
     rc = 1;
   }
   if (tally.calls == 0) {
@@ -293,6 +326,46 @@ int RunPlanning(const std::vector<std::string>& args) {
     rc = 1;
   }
   return rc;
+}
+
+int RunPlanning(const std::vector<std::string>& args) {
+  PlanningOptions options;
+  if (std::optional<int> done = ParsePlanningOptions(args, &options)) return *done;
+  auto queries = LoadQueries(options);
+  if (!queries.ok()) {
+    std::cerr << "mav-load: " << queries.status().message() << "\n";
+    return 1;
+  }
+  if (!options.save_path.empty()) {
+    if (mav::Status s = SaveQueries(options.save_path, *queries); !s.ok()) {
+      std::cerr << "mav-load: " << s.message() << "\n";
+      return 1;
+    }
+  }
+  Load load;
+  load.requests = MakeRequests(*queries);
+  load.deadline_ms = options.deadline_ms;
+  load.channel = grpc::CreateChannel(options.address, grpc::InsecureChannelCredentials());
+  if (!load.channel->WaitForConnected(std::chrono::system_clock::now() + std::chrono::seconds(5))) {
+    std::cerr << "mav-load: cannot connect to " << options.address << "\n";
+    return 1;
+  }
+  std::printf("mav-load planning: %s, concurrency %lld, %.1f s, %zu queries, deadline %.0f ms\n",
+              options.address.c_str(), static_cast<long long>(options.concurrency),
+              options.duration_s, load.requests.size(), options.deadline_ms);
+  std::fflush(stdout);
+
+  const int64_t start_ns = mav::MonotonicNowNs();
+  load.end_ns = start_ns + mav::SecondsToNs(options.duration_s);
+  std::vector<std::thread> workers;
+  for (int64_t w = 0; w < options.concurrency; ++w) workers.emplace_back(CallUntilEnd, &load);
+  PrintProgress(start_ns, &load);
+  for (std::thread& t : workers) t.join();
+  const double elapsed_s = mav::SecondsSince(start_ns);
+
+  const mav::RuntimeStats s = mav::SummarizeRuntimes(load.tally.latencies_ms);
+  PrintTotals(load.tally, elapsed_s, s);
+  return Verdict(options, load.tally, s);
 }
 
 }  // namespace

@@ -15,7 +15,4 @@ int RunGenerate(const std::vector<std::string>& args);
 int RunInfo(const std::vector<std::string>& args);
 int RunPreview(const std::vector<std::string>& args);
 
-// Prints "mav-sim <command>: <message>" to stderr.
-void PrintError(const std::string& command, const std::string& message);
-
 }  // namespace mav::sim_cli

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -17,6 +18,7 @@
 #include <opencv2/core.hpp>
 
 #include "commands.h"
+#include "common.h"
 #include "mav/common/file.h"
 #include "mav/common/flags.h"
 #include "mav/common/progress.h"
@@ -130,6 +132,27 @@ Status RenderFrames(const sim::Scenario& scenario, dataset::EurocWriter* writer,
   return Status::Ok();
 }
 
+// The ground-truth voxel size: --occupancy-resolution, unless the grid would be too large for
+// memory; then a coarser default when the flag was not given, an error when it was.
+Result<double> OccupancyResolution(const sim::Scenario& scenario, double resolution,
+                                   bool resolution_given) {
+  const Eigen::Vector3d extent = scenario.world().bounds().sizes();
+  const auto voxels = [&](double r) {
+    return std::ceil(extent.x() / r + 1) * std::ceil(extent.y() / r + 1) *
+           std::ceil(extent.z() / r + 1);
+  };
+  if (voxels(resolution) > kMaxVoxels) {
+    if (resolution_given) {
+      return Status::InvalidArgument("--occupancy-resolution: " + std::to_string(resolution) +
+                                     " m gives " +
+                                     std::to_string(static_cast<int64_t>(voxels(resolution))) +
+                                     " voxels for this world; " + "choose a coarser resolution");
+    }
+    return kCoarseResolution;
+  }
+  return resolution;
+}
+
 int Fail(const Status& status) {
   PrintError(kCommand, status.ToString());
   return status.code() == StatusCode::kInvalidArgument ? kExitUsage : kExitFailure;
@@ -160,13 +183,9 @@ int RunGenerate(const std::vector<std::string>& args) {
   parser.AddBool("force", &flags.force, "replace the data set in a non-empty --out directory");
 
   std::vector<std::string> positional;
-  bool help = false;
-  const Status parsed = parser.Parse(args, &positional, &help);
-  if (help) {
-    std::fputs(parser.Help().c_str(), stdout);
-    return kExitOk;
+  if (std::optional<int> done = ParseCommandFlags(kCommand, &parser, args, &positional)) {
+    return *done;
   }
-  if (!parsed.ok()) return Fail(parsed);
   if (!positional.empty()) {
     return Fail(Status::InvalidArgument("unexpected argument '" + positional[0] + "'"));
   }
@@ -184,21 +203,10 @@ int RunGenerate(const std::vector<std::string>& args) {
   if (!scenario.ok()) return Fail(scenario.status());
 
   // Size the ground-truth grid before anything is written.
-  double resolution = flags.occupancy_resolution;
-  const Eigen::Vector3d extent = scenario->world().bounds().sizes();
-  const auto voxels = [&](double r) {
-    return std::ceil(extent.x() / r + 1) * std::ceil(extent.y() / r + 1) *
-           std::ceil(extent.z() / r + 1);
-  };
-  if (voxels(resolution) > kMaxVoxels) {
-    if (parser.WasSet("occupancy-resolution")) {
-      return Fail(Status::InvalidArgument(
-          "--occupancy-resolution: " + std::to_string(resolution) + " m gives " +
-          std::to_string(static_cast<int64_t>(voxels(resolution))) + " voxels for this world; " +
-          "choose a coarser resolution"));
-    }
-    resolution = kCoarseResolution;
-  }
+  const Result<double> chosen = OccupancyResolution(*scenario, flags.occupancy_resolution,
+                                                    parser.WasSet("occupancy-resolution"));
+  if (!chosen.ok()) return Fail(chosen.status());
+  const double resolution = *chosen;
 
   if (Status s = CheckOutputDirectory(flags.out, flags.force); !s.ok()) return Fail(s);
   const std::string gt_dir = flags.out + "/ground_truth";
@@ -242,10 +250,6 @@ int RunGenerate(const std::vector<std::string>& args) {
       1e3 * render_s / static_cast<double>(std::max<int64_t>(1, scenario->num_frames())),
       grid.size().x(), grid.size().y(), grid.size().z(), resolution, NsToSeconds(occupancy_ns));
   return kExitOk;
-}
-
-void PrintError(const std::string& command, const std::string& message) {
-  std::fprintf(stderr, "mav-sim %s: %s\n", command.c_str(), message.c_str());
 }
 
 }  // namespace mav::sim_cli

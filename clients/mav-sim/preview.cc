@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,11 +15,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "commands.h"
-#include "mav/common/file.h"
+#include "common.h"
 #include "mav/common/flags.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
-#include "mav/dataset/occupancy_io.h"
 #include "mav/dataset/stereo_pair.h"
 #include "mav/sim/occupancy.h"
 
@@ -52,75 +52,40 @@ struct TopView {
   }
 };
 
-}  // namespace
-
-int RunPreview(const std::vector<std::string>& args) {
+struct PreviewFlags {
+  std::string dir;
   int64_t frame = 0;
   std::string out;
-  double slice_z_flag = 0.0;
+  std::optional<double> slice_z;  // the camera's height when not given
+};
+
+// Parses the command line into *flags; returns the exit code when the command is finished.
+std::optional<int> ParsePreviewFlags(const std::vector<std::string>& args, PreviewFlags* flags) {
+  double slice_z = 0.0;
   FlagParser parser(
       "mav-sim preview DIR --frame K --out x.png [--slice-z Z]\n\n"
       "Draws frame K's left and right images side by side above a top view of the ground-truth\n"
       "occupancy (DIR/ground_truth/occupancy.mavocc) sliced at the camera height: occupied dark,\n"
       "free light, unknown grey; the trajectory in blue, the camera in red.");
-  parser.AddInt64("frame", &frame, "frame index", 0, std::numeric_limits<int64_t>::max());
-  parser.AddString("out", &out, "output PNG (required)");
-  parser.AddDouble("slice-z", &slice_z_flag,
+  parser.AddInt64("frame", &flags->frame, "frame index", 0, std::numeric_limits<int64_t>::max());
+  parser.AddString("out", &flags->out, "output PNG (required)");
+  parser.AddDouble("slice-z", &slice_z,
                    "height of the occupancy slice in metres (default: the camera's)");
-  std::vector<std::string> positional;
-  bool help = false;
-  const Status parsed = parser.Parse(args, &positional, &help);
-  if (help) {
-    std::fputs(parser.Help().c_str(), stdout);
-    return kExitOk;
+  if (std::optional<int> done = ParseDataSetCommand(kCommand, &parser, args, &flags->dir)) {
+    return done;
   }
-  if (!parsed.ok()) {
-    PrintError(kCommand, parsed.ToString());
-    return kExitUsage;
-  }
-  if (positional.size() != 1) {
-    PrintError(kCommand, "expected exactly one data set directory (see --help)");
-    return kExitUsage;
-  }
-  if (out.empty()) {
+  if (flags->out.empty()) {
     PrintError(kCommand, "--out: required");
     return kExitUsage;
   }
-  const std::string& dir = positional[0];
-  auto reader = dataset::EurocReader::Open(dir);
-  if (!reader.ok()) {
-    PrintError(kCommand, reader.status().ToString());
-    return kExitFailure;
-  }
-  if (frame < 0 || frame >= reader->num_frames()) {
-    PrintError(kCommand, "--frame: " + std::to_string(frame) + " is outside [0, " +
-                             std::to_string(reader->num_frames()) + ")");
-    return kExitUsage;
-  }
-  auto pair = reader->ReadStereo(frame);
-  if (!pair.ok()) {
-    PrintError(kCommand, pair.status().ToString());
-    return kExitFailure;
-  }
+  if (parser.WasSet("slice-z")) flags->slice_z = slice_z;
+  return std::nullopt;
+}
 
-  // Top row: the stereo pair.
-  cv::Mat stereo;
-  cv::hconcat(pair->left, pair->right, stereo);
-  cv::cvtColor(stereo, stereo, cv::COLOR_GRAY2BGR);
-  const int width = stereo.cols;
-
-  // Bottom: the slice.
-  std::optional<dataset::OccupancyGrid> grid;
-  const std::string occupancy_path = dir + "/ground_truth/occupancy.mavocc";
-  if (PathExists(occupancy_path)) {
-    auto read = dataset::ReadMavocc(occupancy_path);
-    if (!read.ok()) {
-      PrintError(kCommand, read.status().ToString());
-      return kExitFailure;
-    }
-    grid = std::move(read).value();
-  }
-  const std::vector<dataset::GroundTruthState>& gt = reader->ground_truth();
+// The box the top view shows: the occupancy grid and the trajectory, or 2 x 2 x 1 m around the
+// origin when there is neither.
+Eigen::AlignedBox3d SceneExtent(const std::optional<dataset::OccupancyGrid>& grid,
+                                const std::vector<dataset::GroundTruthState>& gt) {
   Eigen::AlignedBox3d extent;
   if (grid) {
     extent.extend(grid->origin());
@@ -130,63 +95,92 @@ int RunPreview(const std::vector<std::string>& args) {
   if (extent.isEmpty()) {
     extent = Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, 0), Eigen::Vector3d(1, 1, 1));
   }
+  return extent;
+}
+
+// Fits `extent` into a slice `width` pixels wide and at most kMaxSliceHeight high, centred
+// horizontally; *height is the slice's height in pixels.
+TopView FitTopView(const Eigen::AlignedBox3d& extent, int width, int* height) {
   const Eigen::Vector3d size = extent.sizes().cwiseMax(1e-3);
   TopView view;
   view.scale = std::min(width / size.x(), kMaxSliceHeight / size.y());
   view.x0 = extent.min().x() - (width / view.scale - size.x()) / 2;  // centre horizontally
   view.y1 = extent.max().y();
-  const int height = std::max(1, static_cast<int>(std::lround(size.y() * view.scale)));
+  *height = std::max(1, static_cast<int>(std::lround(size.y() * view.scale)));
+  return view;
+}
 
-  const int64_t t_ns = reader->frame_times()[frame];
+void DrawOccupancy(const dataset::OccupancyGrid& grid, const TopView& view, double slice_z,
+                   cv::Mat* slice) {
+  for (int v = 0; v < slice->rows; ++v) {
+    for (int u = 0; u < slice->cols; ++u) {
+      const Eigen::Vector2d xy = view.ToWorld(u, v);
+      const dataset::VoxelState s = grid.StateAt(Eigen::Vector3d(xy.x(), xy.y(), slice_z));
+      const uint8_t grey =
+          s == dataset::VoxelState::kOccupied ? 40 : (s == dataset::VoxelState::kFree ? 235 : 128);
+      slice->at<cv::Vec3b>(v, u) = cv::Vec3b(grey, grey, grey);
+    }
+  }
+}
+
+// The trajectory (every fifth state) and the camera with its viewing direction.
+void DrawTrajectory(const std::vector<dataset::GroundTruthState>& gt,
+                    const geometry::SE3& T_world_cam0, const TopView& view, cv::Mat* slice) {
+  std::vector<cv::Point> path;
+  for (size_t i = 0; i < gt.size(); i += 5) {
+    const cv::Point2d p = view.ToPixel(gt[i].T_world_body.Translation());
+    path.emplace_back(static_cast<int>(std::lround(p.x)), static_cast<int>(std::lround(p.y)));
+  }
+  cv::polylines(*slice, path, false, cv::Scalar(200, 90, 20), 2, cv::LINE_AA);
+  const cv::Point2d c = view.ToPixel(T_world_cam0.Translation());
+  // The optical axis (camera z) projected onto the ground plane, 0.6 m long.
+  Eigen::Vector3d axis = T_world_cam0.Rotation() * Eigen::Vector3d::UnitZ();
+  axis.z() = 0;
+  if (axis.norm() > 1e-6) {
+    const cv::Point2d tip = view.ToPixel(T_world_cam0.Translation() + 0.6 * axis.normalized());
+    cv::arrowedLine(*slice, c, tip, cv::Scalar(0, 0, 230), 3, cv::LINE_AA, 0, 0.3);
+  }
+  cv::circle(*slice, c, 8, cv::Scalar(0, 0, 230), cv::FILLED, cv::LINE_AA);
+}
+
+// White text with a black outline, readable on both free and occupied voxels.
+void DrawCaption(const std::string& caption, cv::Mat* slice) {
+  cv::putText(*slice, caption, cv::Point(12, 30), cv::FONT_HERSHEY_SIMPLEX, 0.8,
+              cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+  cv::putText(*slice, caption, cv::Point(12, 30), cv::FONT_HERSHEY_SIMPLEX, 0.8,
+              cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+}
+
+// The top view of frame `frame` of the set, `width` pixels wide (the stereo pair's width).
+cv::Mat DrawSlice(const dataset::EurocReader& reader, int64_t frame,
+                  const std::optional<dataset::OccupancyGrid>& grid,
+                  std::optional<double> slice_z_flag, int width) {
+  const std::vector<dataset::GroundTruthState>& gt = reader.ground_truth();
+  const Eigen::AlignedBox3d extent = SceneExtent(grid, gt);
+  int height = 0;
+  const TopView view = FitTopView(extent, width, &height);
+
+  const int64_t t_ns = reader.frame_times()[frame];
   geometry::SE3 T_world_cam0;
   if (!gt.empty()) {
-    T_world_cam0 = BodyPoseAt(gt, t_ns) * reader->calibration().T_body_cam0;
+    T_world_cam0 = BodyPoseAt(gt, t_ns) * reader.calibration().T_body_cam0;
   } else {
     T_world_cam0 = geometry::SE3(Eigen::Quaterniond::Identity(), extent.center());
   }
-  const double slice_z = parser.WasSet("slice-z") ? slice_z_flag : T_world_cam0.Translation().z();
+  const double slice_z = slice_z_flag ? *slice_z_flag : T_world_cam0.Translation().z();
 
   cv::Mat slice(height, width, CV_8UC3, cv::Scalar(128, 128, 128));
-  if (grid) {
-    for (int v = 0; v < height; ++v) {
-      for (int u = 0; u < width; ++u) {
-        const Eigen::Vector2d xy = view.ToWorld(u, v);
-        const dataset::VoxelState s = grid->StateAt(Eigen::Vector3d(xy.x(), xy.y(), slice_z));
-        const uint8_t grey = s == dataset::VoxelState::kOccupied
-                                 ? 40
-                                 : (s == dataset::VoxelState::kFree ? 235 : 128);
-        slice.at<cv::Vec3b>(v, u) = cv::Vec3b(grey, grey, grey);
-      }
-    }
-  }
-  if (!gt.empty()) {
-    std::vector<cv::Point> path;
-    for (size_t i = 0; i < gt.size(); i += 5) {
-      const cv::Point2d p = view.ToPixel(gt[i].T_world_body.Translation());
-      path.emplace_back(static_cast<int>(std::lround(p.x)), static_cast<int>(std::lround(p.y)));
-    }
-    cv::polylines(slice, path, false, cv::Scalar(200, 90, 20), 2, cv::LINE_AA);
-    const cv::Point2d c = view.ToPixel(T_world_cam0.Translation());
-    // The optical axis (camera z) projected onto the ground plane, 0.6 m long.
-    Eigen::Vector3d axis = T_world_cam0.Rotation() * Eigen::Vector3d::UnitZ();
-    axis.z() = 0;
-    if (axis.norm() > 1e-6) {
-      const cv::Point2d tip = view.ToPixel(T_world_cam0.Translation() + 0.6 * axis.normalized());
-      cv::arrowedLine(slice, c, tip, cv::Scalar(0, 0, 230), 3, cv::LINE_AA, 0, 0.3);
-    }
-    cv::circle(slice, c, 8, cv::Scalar(0, 0, 230), cv::FILLED, cv::LINE_AA);
-  }
+  if (grid) DrawOccupancy(*grid, view, slice_z, &slice);
+  if (!gt.empty()) DrawTrajectory(gt, T_world_cam0, view, &slice);
   char caption[256];
   std::snprintf(caption, sizeof(caption), "frame %lld  t = %.2f s  slice z = %.2f m%s",
-                static_cast<long long>(frame), NsToSeconds(t_ns - reader->frame_times().front()),
+                static_cast<long long>(frame), NsToSeconds(t_ns - reader.frame_times().front()),
                 slice_z, grid ? "" : "  (no ground-truth occupancy)");
-  cv::putText(slice, caption, cv::Point(12, 30), cv::FONT_HERSHEY_SIMPLEX, 0.8, cv::Scalar(0, 0, 0),
-              3, cv::LINE_AA);
-  cv::putText(slice, caption, cv::Point(12, 30), cv::FONT_HERSHEY_SIMPLEX, 0.8,
-              cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  DrawCaption(caption, &slice);
+  return slice;
+}
 
-  cv::Mat picture;
-  cv::vconcat(stereo, slice, picture);
+int WritePicture(const std::string& out, const cv::Mat& picture) {
   try {
     if (!cv::imwrite(out, picture)) {
       PrintError(kCommand, "--out: cannot write '" + out + "'");
@@ -198,6 +192,42 @@ int RunPreview(const std::vector<std::string>& args) {
   }
   std::printf("wrote %s (%dx%d)\n", out.c_str(), picture.cols, picture.rows);
   return kExitOk;
+}
+
+}  // namespace
+
+int RunPreview(const std::vector<std::string>& args) {
+  PreviewFlags flags;
+  if (std::optional<int> done = ParsePreviewFlags(args, &flags)) return *done;
+  auto reader = dataset::EurocReader::Open(flags.dir);
+  if (!reader.ok()) {
+    PrintError(kCommand, reader.status().ToString());
+    return kExitFailure;
+  }
+  if (flags.frame < 0 || flags.frame >= reader->num_frames()) {
+    PrintError(kCommand, "--frame: " + std::to_string(flags.frame) + " is outside [0, " +
+                             std::to_string(reader->num_frames()) + ")");
+    return kExitUsage;
+  }
+  auto pair = reader->ReadStereo(flags.frame);
+  if (!pair.ok()) {
+    PrintError(kCommand, pair.status().ToString());
+    return kExitFailure;
+  }
+
+  // Top row: the stereo pair; below it the slice.
+  cv::Mat stereo;
+  cv::hconcat(pair->left, pair->right, stereo);
+  cv::cvtColor(stereo, stereo, cv::COLOR_GRAY2BGR);
+  auto grid = ReadGroundTruthOccupancy(flags.dir);
+  if (!grid.ok()) {
+    PrintError(kCommand, grid.status().ToString());
+    return kExitFailure;
+  }
+  const cv::Mat slice = DrawSlice(*reader, flags.frame, *grid, flags.slice_z, stereo.cols);
+  cv::Mat picture;
+  cv::vconcat(stereo, slice, picture);
+  return WritePicture(flags.out, picture);
 }
 
 }  // namespace mav::sim_cli

@@ -61,6 +61,165 @@ double Percentile(std::vector<double> values, double p) {
   return values[i];
 }
 
+bool WantsStereo(const ListenOptions& options) {
+  return options.topic == "stereo" || options.topic == "all";
+}
+bool WantsImu(const ListenOptions& options) {
+  return options.topic == "imu" || options.topic == "all";
+}
+bool WantsGroundTruth(const ListenOptions& options) {
+  return options.topic == "ground_truth" || options.topic == "all";
+}
+
+// The topics and readers of the selected streams; the unselected ones stay empty. The members
+// are declared topic before reader so that a reader is destroyed before its topic.
+struct Subscriptions {
+  std::optional<transport::Topic<mav_dds_StereoFrame>> stereo_topic;
+  std::optional<transport::Reader<mav_dds_StereoFrame>> stereo;
+  std::optional<transport::Topic<mav_dds_ImuSample>> imu_topic;
+  std::optional<transport::Reader<mav_dds_ImuSample>> imu;
+  std::optional<transport::Topic<mav_dds_GroundTruthState>> gt_topic;
+  std::optional<transport::Reader<mav_dds_GroundTruthState>> gt;
+};
+
+// Readers keep everything (KEEP_ALL, reliable): a reader that falls behind throttles the writer
+// instead of losing frames, which is what a verifying subscriber wants.
+Status Subscribe(const transport::Participant& participant, const ListenOptions& options,
+                 Subscriptions* subs) {
+  using transport::Qos;
+  if (WantsStereo(options)) {
+    MAV_ASSIGN_OR_RETURN(subs->stereo_topic,
+                         transport::Topic<mav_dds_StereoFrame>::Create(
+                             participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
+    MAV_ASSIGN_OR_RETURN(subs->stereo,
+                         transport::Reader<mav_dds_StereoFrame>::Create(
+                             participant, *subs->stereo_topic, Qos::SensorStream().KeepAll()));
+  }
+  if (WantsImu(options)) {
+    MAV_ASSIGN_OR_RETURN(subs->imu_topic,
+                         transport::Topic<mav_dds_ImuSample>::Create(
+                             participant, transport::kImuTopic, &mav_dds_ImuSample_desc));
+    MAV_ASSIGN_OR_RETURN(subs->imu, transport::Reader<mav_dds_ImuSample>::Create(
+                                        participant, *subs->imu_topic, Qos::HighRate().KeepAll()));
+  }
+  if (WantsGroundTruth(options)) {
+    MAV_ASSIGN_OR_RETURN(subs->gt_topic, transport::Topic<mav_dds_GroundTruthState>::Create(
+                                             participant, transport::kGroundTruthTopic,
+                                             &mav_dds_GroundTruthState_desc));
+    MAV_ASSIGN_OR_RETURN(subs->gt, transport::Reader<mav_dds_GroundTruthState>::Create(
+                                       participant, *subs->gt_topic, Qos::State().KeepAll()));
+  }
+  return Status::Ok();
+}
+
+// What has arrived so far, over all topics.
+struct Received {
+  SequenceTracker stereo, imu, gt;
+  int64_t crc_failures = 0;
+  std::string first_error;
+  int width = 0;
+  int height = 0;
+  std::vector<double> latencies_ms;  // publish -> receive of every stereo frame
+  double bytes = 0.0;                // image bytes of every stereo frame
+};
+
+// True once the count of the main topic (stereo if selected, else imu, else ground truth)
+// reaches --frames; never without --frames.
+bool TargetReached(const ListenOptions& options, const Received& received) {
+  if (options.frames <= 0) return false;
+  if (WantsStereo(options)) return received.stereo.count >= options.frames;
+  if (WantsImu(options)) return received.imu.count >= options.frames;
+  return received.gt.count >= options.frames;
+}
+
+// Blocks for up to 5 ms on the main topic's waitset; the others are drained on every wake-up.
+Status WaitForMainTopic(Subscriptions& subs) {
+  if (subs.stereo.has_value()) return subs.stereo->WaitForData(5'000'000).status();
+  if (subs.imu.has_value()) return subs.imu->WaitForData(5'000'000).status();
+  return subs.gt->WaitForData(5'000'000).status();
+}
+
+// Takes every stereo frame waiting (stopping early at the target) and checks each one.
+Status DrainStereo(const ListenOptions& options, transport::Reader<mav_dds_StereoFrame>& reader,
+                   Received* received) {
+  while (true) {
+    MAV_ASSIGN_OR_RETURN(auto samples, reader.Take(8));
+    if (samples.size() == 0) break;
+    const int64_t now_wall = WallNowNs();
+    const int64_t now_mono = MonotonicNowNs();
+    for (int32_t i = 0; i < samples.size(); ++i) {
+      if (!samples.valid(i)) continue;
+      const mav_dds_StereoFrame& frame = samples[i];
+      received->stereo.Add(static_cast<int64_t>(frame.sequence_number), now_mono);
+      const Status check = service_common::CheckStereoFrame(frame);
+      if (!check.ok()) {
+        ++received->crc_failures;
+        if (received->first_error.empty()) received->first_error = check.message();
+      }
+      received->width = static_cast<int>(frame.width);
+      received->height = static_cast<int>(frame.height);
+      received->bytes += static_cast<double>(frame.left._length) + frame.right._length;
+      received->latencies_ms.push_back(static_cast<double>(now_wall - frame.publish_t_ns) * 1e-6);
+      if (TargetReached(options, *received)) break;
+    }
+    if (TargetReached(options, *received)) break;
+  }
+  return Status::Ok();
+}
+
+// Takes every IMU or ground-truth sample waiting; only their sequence numbers are tracked.
+template <typename Sample>
+Status DrainSequence(transport::Reader<Sample>& reader, SequenceTracker* tracker) {
+  while (true) {
+    MAV_ASSIGN_OR_RETURN(auto samples, reader.Take(kTakeBatch));
+    if (samples.size() == 0) break;
+    const int64_t now_mono = MonotonicNowNs();
+    for (int32_t i = 0; i < samples.size(); ++i) {
+      if (samples.valid(i))
+        tracker->Add(static_cast<int64_t>(samples[i].sequence_number), now_mono);
+    }
+  }
+  return Status::Ok();
+}
+
+ListenReport MakeReport(const Received& received) {
+  const SequenceTracker& stereo = received.stereo;
+  ListenReport report;
+  report.frames = stereo.count;
+  report.first_sequence = stereo.first;
+  report.last_sequence = stereo.expected - 1;
+  report.missing = stereo.missing;
+  report.missing_examples = stereo.missing_examples;
+  report.out_of_order = stereo.out_of_order;
+  report.crc_failures = received.crc_failures;
+  report.first_error = received.first_error;
+  report.width = received.width;
+  report.height = received.height;
+  report.rate_hz = stereo.RateHz();
+  const std::vector<double>& latencies_ms = received.latencies_ms;
+  if (!latencies_ms.empty()) {
+    double sum = 0;
+    for (double v : latencies_ms) sum += v;
+    report.latency_mean_ms = sum / static_cast<double>(latencies_ms.size());
+    report.latency_p50_ms = Percentile(latencies_ms, 0.5);
+    report.latency_p95_ms = Percentile(latencies_ms, 0.95);
+    report.latency_max_ms = Percentile(latencies_ms, 1.0);
+  }
+  if (stereo.count >= 2 && stereo.last_receive_ns > stereo.first_receive_ns) {
+    // Bytes after the first frame over the time between the first and the last.
+    const double per_frame = received.bytes / static_cast<double>(stereo.count);
+    report.throughput_mb_s = per_frame * static_cast<double>(stereo.count - 1) /
+                             NsToSeconds(stereo.last_receive_ns - stereo.first_receive_ns) / 1e6;
+  }
+  report.imu_samples = received.imu.count;
+  report.imu_missing = received.imu.missing;
+  report.imu_rate_hz = received.imu.RateHz();
+  report.ground_truth = received.gt.count;
+  report.ground_truth_missing = received.gt.missing;
+  report.ground_truth_rate_hz = received.gt.RateHz();
+  return report;
+}
+
 }  // namespace
 
 bool ListenOptions::IsValid(std::string* why) const {
@@ -81,154 +240,36 @@ bool ListenOptions::IsValid(std::string* why) const {
 }
 
 Result<ListenReport> Listen(const ListenOptions& options, std::ostream& progress) {
-  using transport::Qos;
   std::string why;
   if (!options.IsValid(&why)) return Status::InvalidArgument(why);
-  const bool want_stereo = options.topic == "stereo" || options.topic == "all";
-  const bool want_imu = options.topic == "imu" || options.topic == "all";
-  const bool want_gt = options.topic == "ground_truth" || options.topic == "all";
-
   MAV_ASSIGN_OR_RETURN(transport::Participant participant,
                        transport::Participant::Create(options.dds));
-  // Readers keep everything (KEEP_ALL, reliable): a reader that falls behind throttles the
-  // writer instead of losing frames, which is what a verifying subscriber wants.
-  std::optional<transport::Topic<mav_dds_StereoFrame>> stereo_topic;
-  std::optional<transport::Reader<mav_dds_StereoFrame>> stereo;
-  std::optional<transport::Topic<mav_dds_ImuSample>> imu_topic;
-  std::optional<transport::Reader<mav_dds_ImuSample>> imu;
-  std::optional<transport::Topic<mav_dds_GroundTruthState>> gt_topic;
-  std::optional<transport::Reader<mav_dds_GroundTruthState>> gt;
-  if (want_stereo) {
-    MAV_ASSIGN_OR_RETURN(stereo_topic,
-                         transport::Topic<mav_dds_StereoFrame>::Create(
-                             participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
-    MAV_ASSIGN_OR_RETURN(stereo, transport::Reader<mav_dds_StereoFrame>::Create(
-                                     participant, *stereo_topic, Qos::SensorStream().KeepAll()));
-  }
-  if (want_imu) {
-    MAV_ASSIGN_OR_RETURN(
-        imu_topic, transport::Topic<mav_dds_ImuSample>::Create(participant, transport::kImuTopic,
-                                                               &mav_dds_ImuSample_desc));
-    MAV_ASSIGN_OR_RETURN(imu, transport::Reader<mav_dds_ImuSample>::Create(
-                                  participant, *imu_topic, Qos::HighRate().KeepAll()));
-  }
-  if (want_gt) {
-    MAV_ASSIGN_OR_RETURN(
-        gt_topic, transport::Topic<mav_dds_GroundTruthState>::Create(
-                      participant, transport::kGroundTruthTopic, &mav_dds_GroundTruthState_desc));
-    MAV_ASSIGN_OR_RETURN(gt, transport::Reader<mav_dds_GroundTruthState>::Create(
-                                 participant, *gt_topic, Qos::State().KeepAll()));
-  }
+  Subscriptions subs;
+  MAV_RETURN_IF_ERROR(Subscribe(participant, options, &subs));
 
-  ListenReport report;
-  SequenceTracker stereo_seq, imu_seq, gt_seq;
-  std::vector<double> latencies_ms;
-  double bytes = 0.0;
+  Received received;
   const int64_t start_ns = MonotonicNowNs();
   const int64_t end_ns = start_ns + SecondsToNs(options.timeout_s);
   int64_t next_progress_ns = start_ns + kNsPerSecond;
-  auto target_reached = [&] {
-    if (options.frames <= 0) return false;
-    if (want_stereo) return stereo_seq.count >= options.frames;
-    if (want_imu) return imu_seq.count >= options.frames;
-    return gt_seq.count >= options.frames;
-  };
-
-  while (!target_reached() && MonotonicNowNs() < end_ns) {
-    // Block on the main topic's waitset; the others are drained on every wake-up.
-    if (stereo.has_value()) {
-      MAV_RETURN_IF_ERROR(stereo->WaitForData(5'000'000).status());
-    } else if (imu.has_value()) {
-      MAV_RETURN_IF_ERROR(imu->WaitForData(5'000'000).status());
-    } else {
-      MAV_RETURN_IF_ERROR(gt->WaitForData(5'000'000).status());
-    }
-    if (stereo.has_value()) {
-      while (true) {
-        MAV_ASSIGN_OR_RETURN(auto samples, stereo->Take(8));
-        if (samples.size() == 0) break;
-        const int64_t now_wall = WallNowNs();
-        const int64_t now_mono = MonotonicNowNs();
-        for (int32_t i = 0; i < samples.size(); ++i) {
-          if (!samples.valid(i)) continue;
-          const mav_dds_StereoFrame& frame = samples[i];
-          stereo_seq.Add(static_cast<int64_t>(frame.sequence_number), now_mono);
-          const Status check = service_common::CheckStereoFrame(frame);
-          if (!check.ok()) {
-            ++report.crc_failures;
-            if (report.first_error.empty()) report.first_error = check.message();
-          }
-          report.width = static_cast<int>(frame.width);
-          report.height = static_cast<int>(frame.height);
-          bytes += static_cast<double>(frame.left._length) + frame.right._length;
-          latencies_ms.push_back(static_cast<double>(now_wall - frame.publish_t_ns) * 1e-6);
-          if (target_reached()) break;
-        }
-        if (target_reached()) break;
-      }
-    }
-    if (imu.has_value()) {
-      while (true) {
-        MAV_ASSIGN_OR_RETURN(auto samples, imu->Take(kTakeBatch));
-        if (samples.size() == 0) break;
-        const int64_t now_mono = MonotonicNowNs();
-        for (int32_t i = 0; i < samples.size(); ++i) {
-          if (samples.valid(i)) {
-            imu_seq.Add(static_cast<int64_t>(samples[i].sequence_number), now_mono);
-          }
-        }
-      }
-    }
-    if (gt.has_value()) {
-      while (true) {
-        MAV_ASSIGN_OR_RETURN(auto samples, gt->Take(kTakeBatch));
-        if (samples.size() == 0) break;
-        const int64_t now_mono = MonotonicNowNs();
-        for (int32_t i = 0; i < samples.size(); ++i) {
-          if (samples.valid(i)) {
-            gt_seq.Add(static_cast<int64_t>(samples[i].sequence_number), now_mono);
-          }
-        }
-      }
-    }
+  while (!TargetReached(options, received) && MonotonicNowNs() < end_ns) {
+    MAV_RETURN_IF_ERROR(WaitForMainTopic(subs));
+    if (subs.stereo.has_value()) MAV_RETURN_IF_ERROR(DrainStereo(options, *subs.stereo, &received));
+    if (subs.imu.has_value()) MAV_RETURN_IF_ERROR(DrainSequence(*subs.imu, &received.imu));
+    if (subs.gt.has_value()) MAV_RETURN_IF_ERROR(DrainSequence(*subs.gt, &received.gt));
     if (options.progress && MonotonicNowNs() >= next_progress_ns) {
       next_progress_ns += kNsPerSecond;
       progress << "  t=" << std::fixed << std::setprecision(0)
-               << NsToSeconds(MonotonicNowNs() - start_ns) << " s: stereo " << stereo_seq.count
-               << ", imu " << imu_seq.count << ", ground truth " << gt_seq.count << std::endl;
+               << NsToSeconds(MonotonicNowNs() - start_ns) << " s: stereo " << received.stereo.count
+               << ", imu " << received.imu.count << ", ground truth " << received.gt.count
+               << std::endl;
     }
   }
 
-  report.reached_target = target_reached();
-  report.elapsed_s = NsToSeconds(MonotonicNowNs() - start_ns);
-  report.frames = stereo_seq.count;
-  report.first_sequence = stereo_seq.first;
-  report.last_sequence = stereo_seq.expected - 1;
-  report.missing = stereo_seq.missing;
-  report.missing_examples = stereo_seq.missing_examples;
-  report.out_of_order = stereo_seq.out_of_order;
-  report.rate_hz = stereo_seq.RateHz();
-  if (!latencies_ms.empty()) {
-    double sum = 0;
-    for (double v : latencies_ms) sum += v;
-    report.latency_mean_ms = sum / static_cast<double>(latencies_ms.size());
-    report.latency_p50_ms = Percentile(latencies_ms, 0.5);
-    report.latency_p95_ms = Percentile(latencies_ms, 0.95);
-    report.latency_max_ms = Percentile(latencies_ms, 1.0);
-  }
-  if (stereo_seq.count >= 2 && stereo_seq.last_receive_ns > stereo_seq.first_receive_ns) {
-    // Bytes after the first frame over the time between the first and the last.
-    const double per_frame = bytes / static_cast<double>(stereo_seq.count);
-    report.throughput_mb_s = per_frame * static_cast<double>(stereo_seq.count - 1) /
-                             NsToSeconds(stereo_seq.last_receive_ns - stereo_seq.first_receive_ns) /
-                             1e6;
-  }
-  report.imu_samples = imu_seq.count;
-  report.imu_missing = imu_seq.missing;
-  report.imu_rate_hz = imu_seq.RateHz();
-  report.ground_truth = gt_seq.count;
-  report.ground_truth_missing = gt_seq.missing;
-  report.ground_truth_rate_hz = gt_seq.RateHz();
+  const bool reached_target = TargetReached(options, received);
+  const double elapsed_s = NsToSeconds(MonotonicNowNs() - start_ns);
+  ListenReport report = MakeReport(received);
+  report.reached_target = reached_target;
+  report.elapsed_s = elapsed_s;
   return report;
 }
 
@@ -239,9 +280,9 @@ bool ReportPassed(const ListenOptions& options, const ListenReport& report) {
 
 void PrintReport(const ListenOptions& options, const ListenReport& report, std::ostream& out) {
   out << std::fixed;
-  const bool want_stereo = options.topic == "stereo" || options.topic == "all";
-  const bool want_imu = options.topic == "imu" || options.topic == "all";
-  const bool want_gt = options.topic == "ground_truth" || options.topic == "all";
+  const bool want_stereo = WantsStereo(options);
+  const bool want_imu = WantsImu(options);
+  const bool want_gt = WantsGroundTruth(options);
   out << "listened " << std::setprecision(1) << report.elapsed_s << " s on DDS domain "
       << options.dds.domain << (report.reached_target ? " (target reached)" : "") << "\n";
   if (want_stereo) {

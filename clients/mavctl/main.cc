@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <exception>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -139,6 +140,160 @@ void PrintStatus(const mav::v1::SimulatorStatus& s) {
   std::cout.unsetf(std::ios::fixed);
 }
 
+// One simulator RPC answered with its status (Start, Pause, Step, GetStatus), which is printed.
+// Returns the exit code.
+int CallForStatus(const Connection& connection, const std::string& rpc,
+                  const std::function<grpc::Status(mav::v1::Simulator::Stub*, grpc::ClientContext*,
+                                                   mav::v1::SimulatorStatus*)>& call) {
+  auto stub = mav::v1::Simulator::NewStub(Connect(connection));
+  mav::v1::SimulatorStatus response;
+  if (int rc = CallUnary(connection, rpc,
+                         [&](grpc::ClientContext* c) { return call(stub.get(), c, &response); })) {
+    return rc;
+  }
+  PrintStatus(response);
+  return 0;
+}
+
+// The `sim` subcommands below get the parser with the connection flags already added, add their
+// own flags, and return the exit code.
+
+int SimLoad(FlagParser* flags, Connection* connection, const std::vector<std::string>& args) {
+  std::string preset, euroc;
+  int64_t frames = 0, seed = 1;
+  bool rectified = false;
+  flags->AddString("preset", &preset, "preset name (room-easy|room-medium|room-hard|plant)");
+  flags->AddInt("frames", &frames, "stereo frames (0 = full preset)");
+  flags->AddInt("seed", &seed, "renderer/IMU seed");
+  flags->AddBool("rectified", &rectified, "ideal rectified pair instead of EuRoC's raw rig");
+  flags->AddString("euroc", &euroc, "EuRoC ASL directory on the server");
+  ParseOrExit(flags, connection, args);
+  if (preset.empty() == euroc.empty()) {
+    std::cerr << "mavctl: sim load needs exactly one of --preset NAME or --euroc DIR\n";
+    return 2;
+  }
+  mav::v1::LoadScenarioRequest request;
+  if (!preset.empty()) {
+    request.mutable_preset()->set_name(preset);
+    request.mutable_preset()->set_frames(frames);
+    request.mutable_preset()->set_seed(static_cast<uint64_t>(seed));
+    request.mutable_preset()->set_rectified(rectified);
+  } else {
+    request.mutable_euroc()->set_directory(euroc);
+  }
+  auto stub = mav::v1::Simulator::NewStub(Connect(*connection));
+  mav::v1::LoadScenarioResponse response;
+  if (int rc = CallUnary(*connection, "LoadScenario", [&](grpc::ClientContext* c) {
+        return stub->LoadScenario(c, request, &response);
+      })) {
+    return rc;
+  }
+  std::cout << "loaded\n";
+  PrintSummary(response.scenario());
+  return 0;
+}
+
+int SimStart(FlagParser* flags, Connection* connection, const std::vector<std::string>& args) {
+  double rate = 0.0, wait_timeout = 0.0;
+  bool fast = false, loop = false;
+  int64_t wait_subscribers = 0;
+  flags->AddDouble("rate", &rate, "real-time factor (1.0 = 20 Hz frames)");
+  flags->AddBool("fast", &fast, "as fast as the stereo subscribers acknowledge");
+  flags->AddBool("loop", &loop, "restart from frame 0 after the last frame");
+  flags->AddInt("wait-subscribers", &wait_subscribers,
+                "wait for this many stereo subscribers before the first frame");
+  flags->AddDouble("wait-timeout", &wait_timeout, "how long to wait for them, s (0 = 5 s)");
+  ParseOrExit(flags, connection, args);
+  if (flags->WasSet("rate") == fast) {
+    std::cerr << "mavctl: sim start needs exactly one of --rate FACTOR or --fast\n";
+    return 2;
+  }
+  if (wait_subscribers < 0) {
+    std::cerr << "mavctl: --wait-subscribers: must be >= 0\n";
+    return 2;
+  }
+  mav::v1::SimulatorStartRequest request;
+  if (fast) {
+    request.set_as_fast_as_subscribers(true);
+  } else {
+    request.set_real_time_factor(rate);  // the server validates (> 0, finite)
+  }
+  request.set_loop(loop);
+  request.set_wait_for_subscribers(static_cast<uint32_t>(wait_subscribers));
+  request.set_wait_timeout_s(wait_timeout);
+  return CallForStatus(*connection, "Start", [&](auto* stub, auto* c, auto* response) {
+    return stub->Start(c, request, response);
+  });
+}
+
+int SimStep(FlagParser* flags, Connection* connection, const std::vector<std::string>& args) {
+  const std::vector<std::string> positional = ParseOrExit(flags, connection, args, true);
+  if (positional.size() != 1) {
+    std::cerr << "mavctl: sim step needs one argument N (frames)\n";
+    return 2;
+  }
+  auto n = mav::ParseInt64(positional[0], "step N");
+  if (!n.ok() || *n < 1 || *n > UINT32_MAX) {
+    std::cerr << "mavctl: step N: '" << positional[0] << "' is not a frame count >= 1\n";
+    return 2;
+  }
+  mav::v1::SimulatorStepRequest request;
+  request.set_frames(static_cast<uint32_t>(*n));
+  return CallForStatus(*connection, "Step", [&](auto* stub, auto* c, auto* response) {
+    return stub->Step(c, request, response);
+  });
+}
+
+int SimCalibration(FlagParser* flags, Connection* connection,
+                   const std::vector<std::string>& args) {
+  ParseOrExit(flags, connection, args);
+  auto stub = mav::v1::Simulator::NewStub(Connect(*connection));
+  mav::v1::GetCalibrationResponse response;
+  if (int rc = CallUnary(*connection, "GetCalibration", [&](grpc::ClientContext* c) {
+        return stub->GetCalibration(c, mav::v1::GetCalibrationRequest(), &response);
+      })) {
+    return rc;
+  }
+  std::cout << response.DebugString();
+  return 0;
+}
+
+int SimOccupancy(FlagParser* flags, Connection* connection, const std::vector<std::string>& args) {
+  std::string out, format = "bt";
+  double resolution = 0.05;
+  flags->AddString("out", &out, "output file");
+  flags->AddDouble("resolution", &resolution, "voxel edge, m");
+  flags->AddString("format", &format, "bt (OctoMap) or mavocc");
+  ParseOrExit(flags, connection, args);
+  if (out.empty()) {
+    std::cerr << "mavctl: sim occupancy needs --out FILE\n";
+    return 2;
+  }
+  if (format != "bt" && format != "mavocc") {
+    std::cerr << "mavctl: --format: '" << format << "' is not bt|mavocc\n";
+    return 2;
+  }
+  mav::v1::GetGroundTruthOccupancyRequest request;
+  request.set_resolution_m(resolution);
+  request.set_format(format == "bt" ? mav::v1::OCCUPANCY_FORMAT_OCTOMAP_BT
+                                    : mav::v1::OCCUPANCY_FORMAT_MAVOCC);
+  auto stub = mav::v1::Simulator::NewStub(Connect(*connection));
+  std::string bytes;
+  if (int rc = DownloadChunks<mav::v1::OccupancyChunk>(
+          *connection, "GetGroundTruthOccupancy",
+          [&](grpc::ClientContext* c) { return stub->GetGroundTruthOccupancy(c, request); },
+          [](const mav::v1::OccupancyChunk& m) -> const mav::v1::FileChunk& { return m.chunk(); },
+          &bytes)) {
+    return rc;
+  }
+  if (mav::Status s = mav::WriteStringToFileAtomic(out, bytes); !s.ok()) {
+    std::cerr << "mavctl: " << s.message() << "\n";
+    return 1;
+  }
+  std::cout << "wrote " << out << " (" << bytes.size() << " bytes)\n";
+  return 0;
+}
+
 int SimCommand(const std::vector<std::string>& args) {
   if (args.empty()) {
     std::cerr << "mavctl: sim needs a subcommand: load|start|pause|step|status|calibration|"
@@ -152,163 +307,23 @@ int SimCommand(const std::vector<std::string>& args) {
   FlagParser flags("mavctl sim " + sub, "");
   AddConnectionFlags(&flags, &connection);
 
-  if (sub == "load") {
-    std::string preset, euroc;
-    int64_t frames = 0, seed = 1;
-    bool rectified = false;
-    flags.AddString("preset", &preset, "preset name (room-easy|room-medium|room-hard|plant)");
-    flags.AddInt("frames", &frames, "stereo frames (0 = full preset)");
-    flags.AddInt("seed", &seed, "renderer/IMU seed");
-    flags.AddBool("rectified", &rectified, "ideal rectified pair instead of EuRoC's raw rig");
-    flags.AddString("euroc", &euroc, "EuRoC ASL directory on the server");
+  if (sub == "load") return SimLoad(&flags, &connection, rest);
+  if (sub == "start") return SimStart(&flags, &connection, rest);
+  if (sub == "pause") {
     ParseOrExit(&flags, &connection, rest);
-    if (preset.empty() == euroc.empty()) {
-      std::cerr << "mavctl: sim load needs exactly one of --preset NAME or --euroc DIR\n";
-      return 2;
-    }
-    mav::v1::LoadScenarioRequest request;
-    if (!preset.empty()) {
-      request.mutable_preset()->set_name(preset);
-      request.mutable_preset()->set_frames(frames);
-      request.mutable_preset()->set_seed(static_cast<uint64_t>(seed));
-      request.mutable_preset()->set_rectified(rectified);
-    } else {
-      request.mutable_euroc()->set_directory(euroc);
-    }
-    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    mav::v1::LoadScenarioResponse response;
-    if (int rc = CallUnary(connection, "LoadScenario", [&](grpc::ClientContext* c) {
-          return stub->LoadScenario(c, request, &response);
-        })) {
-      return rc;
-    }
-    std::cout << "loaded\n";
-    PrintSummary(response.scenario());
-    return 0;
+    return CallForStatus(connection, "Pause", [](auto* stub, auto* c, auto* response) {
+      return stub->Pause(c, mav::v1::SimulatorPauseRequest(), response);
+    });
   }
-  if (sub == "start") {
-    double rate = 0.0, wait_timeout = 0.0;
-    bool fast = false, loop = false;
-    int64_t wait_subscribers = 0;
-    flags.AddDouble("rate", &rate, "real-time factor (1.0 = 20 Hz frames)");
-    flags.AddBool("fast", &fast, "as fast as the stereo subscribers acknowledge");
-    flags.AddBool("loop", &loop, "restart from frame 0 after the last frame");
-    flags.AddInt("wait-subscribers", &wait_subscribers,
-                 "wait for this many stereo subscribers before the first frame");
-    flags.AddDouble("wait-timeout", &wait_timeout, "how long to wait for them, s (0 = 5 s)");
+  if (sub == "status") {
     ParseOrExit(&flags, &connection, rest);
-    if (flags.WasSet("rate") == fast) {
-      std::cerr << "mavctl: sim start needs exactly one of --rate FACTOR or --fast\n";
-      return 2;
-    }
-    if (wait_subscribers < 0) {
-      std::cerr << "mavctl: --wait-subscribers: must be >= 0\n";
-      return 2;
-    }
-    mav::v1::SimulatorStartRequest request;
-    if (fast) {
-      request.set_as_fast_as_subscribers(true);
-    } else {
-      request.set_real_time_factor(rate);  // the server validates (> 0, finite)
-    }
-    request.set_loop(loop);
-    request.set_wait_for_subscribers(static_cast<uint32_t>(wait_subscribers));
-    request.set_wait_timeout_s(wait_timeout);
-    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    mav::v1::SimulatorStatus response;
-    if (int rc = CallUnary(connection, "Start", [&](grpc::ClientContext* c) {
-          return stub->Start(c, request, &response);
-        })) {
-      return rc;
-    }
-    PrintStatus(response);
-    return 0;
+    return CallForStatus(connection, "GetStatus", [](auto* stub, auto* c, auto* response) {
+      return stub->GetStatus(c, mav::v1::SimulatorGetStatusRequest(), response);
+    });
   }
-  if (sub == "pause" || sub == "status") {
-    ParseOrExit(&flags, &connection, rest);
-    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    mav::v1::SimulatorStatus response;
-    if (int rc = CallUnary(
-            connection, sub == "pause" ? "Pause" : "GetStatus", [&](grpc::ClientContext* c) {
-              return sub == "pause"
-                         ? stub->Pause(c, mav::v1::SimulatorPauseRequest(), &response)
-                         : stub->GetStatus(c, mav::v1::SimulatorGetStatusRequest(), &response);
-            })) {
-      return rc;
-    }
-    PrintStatus(response);
-    return 0;
-  }
-  if (sub == "step") {
-    const std::vector<std::string> positional = ParseOrExit(&flags, &connection, rest, true);
-    if (positional.size() != 1) {
-      std::cerr << "mavctl: sim step needs one argument N (frames)\n";
-      return 2;
-    }
-    auto n = mav::ParseInt64(positional[0], "step N");
-    if (!n.ok() || *n < 1 || *n > UINT32_MAX) {
-      std::cerr << "mavctl: step N: '" << positional[0] << "' is not a frame count >= 1\n";
-      return 2;
-    }
-    mav::v1::SimulatorStepRequest request;
-    request.set_frames(static_cast<uint32_t>(*n));
-    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    mav::v1::SimulatorStatus response;
-    if (int rc = CallUnary(connection, "Step", [&](grpc::ClientContext* c) {
-          return stub->Step(c, request, &response);
-        })) {
-      return rc;
-    }
-    PrintStatus(response);
-    return 0;
-  }
-  if (sub == "calibration") {
-    ParseOrExit(&flags, &connection, rest);
-    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    mav::v1::GetCalibrationResponse response;
-    if (int rc = CallUnary(connection, "GetCalibration", [&](grpc::ClientContext* c) {
-          return stub->GetCalibration(c, mav::v1::GetCalibrationRequest(), &response);
-        })) {
-      return rc;
-    }
-    std::cout << response.DebugString();
-    return 0;
-  }
-  if (sub == "occupancy") {
-    std::string out, format = "bt";
-    double resolution = 0.05;
-    flags.AddString("out", &out, "output file");
-    flags.AddDouble("resolution", &resolution, "voxel edge, m");
-    flags.AddString("format", &format, "bt (OctoMap) or mavocc");
-    ParseOrExit(&flags, &connection, rest);
-    if (out.empty()) {
-      std::cerr << "mavctl: sim occupancy needs --out FILE\n";
-      return 2;
-    }
-    if (format != "bt" && format != "mavocc") {
-      std::cerr << "mavctl: --format: '" << format << "' is not bt|mavocc\n";
-      return 2;
-    }
-    mav::v1::GetGroundTruthOccupancyRequest request;
-    request.set_resolution_m(resolution);
-    request.set_format(format == "bt" ? mav::v1::OCCUPANCY_FORMAT_OCTOMAP_BT
-                                      : mav::v1::OCCUPANCY_FORMAT_MAVOCC);
-    auto stub = mav::v1::Simulator::NewStub(Connect(connection));
-    std::string bytes;
-    if (int rc = DownloadChunks<mav::v1::OccupancyChunk>(
-            connection, "GetGroundTruthOccupancy",
-            [&](grpc::ClientContext* c) { return stub->GetGroundTruthOccupancy(c, request); },
-            [](const mav::v1::OccupancyChunk& m) -> const mav::v1::FileChunk& { return m.chunk(); },
-            &bytes)) {
-      return rc;
-    }
-    if (mav::Status s = mav::WriteStringToFileAtomic(out, bytes); !s.ok()) {
-      std::cerr << "mavctl: " << s.message() << "\n";
-      return 1;
-    }
-    std::cout << "wrote " << out << " (" << bytes.size() << " bytes)\n";
-    return 0;
-  }
+  if (sub == "step") return SimStep(&flags, &connection, rest);
+  if (sub == "calibration") return SimCalibration(&flags, &connection, rest);
+  if (sub == "occupancy") return SimOccupancy(&flags, &connection, rest);
   std::cerr << "mavctl: unknown sim subcommand '" << sub << "'\n" << kUsage;
   return 2;
 }

@@ -45,6 +45,18 @@ bool OdometryOptions::IsValid(Method method, std::string* why) const {
 
 namespace {
 
+// The fields both VOs' frame results share.
+template <typename FrameResult>
+OdometryFrame CommonFields(const FrameResult& r) {
+  OdometryFrame out;
+  out.t_ns = r.t_ns;
+  out.state = r.state;
+  out.lost_reason = r.lost_reason;
+  out.T_world_cam = r.T_world_cam;
+  out.reference_reset = r.reference_reset;
+  return out;
+}
+
 class SparseOdometry final : public StereoOdometry {
  public:
   SparseOdometry(Method method, SparseVo vo) : method_(method), vo_(std::move(vo)) {}
@@ -52,12 +64,7 @@ class SparseOdometry final : public StereoOdometry {
   Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
                                 const MotionHint* hint) override {
     MAV_ASSIGN_OR_RETURN(const VoFrameResult r, vo_.ProcessFrame(t_ns, left, right, hint));
-    OdometryFrame out;
-    out.t_ns = r.t_ns;
-    out.state = r.state;
-    out.lost_reason = r.lost_reason;
-    out.T_world_cam = r.T_world_cam;
-    out.reference_reset = r.reference_reset;
+    OdometryFrame out = CommonFields(r);
     out.vision_R_prev_cur = r.vision_R_prev_cur;
     out.matches = r.num_matches;
     out.support = r.num_inliers;
@@ -83,12 +90,7 @@ class DenseOdometry final : public StereoOdometry {
   Result<OdometryFrame> Process(int64_t t_ns, const cv::Mat& left, const cv::Mat& right,
                                 const MotionHint* hint) override {
     MAV_ASSIGN_OR_RETURN(const DenseFrameResult r, vo_.ProcessFrame(t_ns, left, right, hint));
-    OdometryFrame out;
-    out.t_ns = r.t_ns;
-    out.state = r.state;
-    out.lost_reason = r.lost_reason;
-    out.T_world_cam = r.T_world_cam;
-    out.reference_reset = r.reference_reset;
+    OdometryFrame out = CommonFields(r);
     out.keyframe = r.new_keyframe;
     out.matches = r.num_keyframe_pixels;
     out.support = r.num_pixels_used;

@@ -25,29 +25,16 @@ int FindBest(const FeatureSet& fs, const FeatureSet::Class& c, const localizatio
   int best = -1;
   *best_cost = std::numeric_limits<uint32_t>::max();
   *second_cost = std::numeric_limits<uint32_t>::max();
-  u0 = std::max(u0, 0);
-  v0 = std::max(v0, 0);
-  u1 = std::min(u1, fs.width() - 1);
-  v1 = std::min(v1, fs.height() - 1);
-  if (u0 > u1 || v0 > v1 || c.u.empty()) return best;
-  const int cell = fs.grid_cell_px(), cols = fs.grid_cols();
-  const int cx0 = u0 / cell, cx1 = u1 / cell, cy0 = v0 / cell, cy1 = v1 / cell;
-  for (int cy = cy0; cy <= cy1; ++cy) {
-    const int first = c.cell_start[cy * cols + cx0];
-    const int last = c.cell_start[cy * cols + cx1 + 1];
-    for (int i = first; i < last; ++i) {
-      const int u = c.u[i], v = c.v[i];
-      if (u < u0 || u > u1 || v < v0 || v > v1) continue;
-      const uint32_t cost = localization::DescriptorSad(d, c.descriptors[i]);
-      if (cost < *best_cost) {
-        *second_cost = *best_cost;
-        *best_cost = cost;
-        best = i;
-      } else if (cost < *second_cost) {
-        *second_cost = cost;
-      }
+  fs.ForEachInWindow(c, u0, u1, v0, v1, [&](int i) {
+    const uint32_t cost = localization::DescriptorSad(d, c.descriptors[i]);
+    if (cost < *best_cost) {
+      *second_cost = *best_cost;
+      *best_cost = cost;
+      best = i;
+    } else if (cost < *second_cost) {
+      *second_cost = cost;
     }
-  }
+  });
   return best;
 }
 

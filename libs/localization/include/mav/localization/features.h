@@ -12,6 +12,7 @@
 //
 // Pure C++ (no OpenCV in this header): images come in as ImageView.
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -103,6 +104,30 @@ class FeatureSet {
   Descriptor DescriptorAt(int u, int v) const;
   // Features keep this distance from the image border (descriptor window + refinement step).
   static constexpr int kDescriptorMargin = 8;
+
+  // Calls visit(i) for the index i of every feature of `c` (one of this set's classes) inside
+  // the window [u0, u1] x [v0, v1] (inclusive, clipped to the image), cell row by cell row: the
+  // one window search of the matchers (the VO's and the mapping's stereo matching).
+  template <typename Visit>
+  void ForEachInWindow(const Class& c, int u0, int u1, int v0, int v1, Visit&& visit) const {
+    u0 = std::max(u0, 0);
+    v0 = std::max(v0, 0);
+    u1 = std::min(u1, width_ - 1);
+    v1 = std::min(v1, height_ - 1);
+    if (u0 > u1 || v0 > v1 || c.u.empty()) return;
+    const int cx0 = u0 / cell_, cx1 = u1 / cell_, cy0 = v0 / cell_, cy1 = v1 / cell_;
+    for (int cy = cy0; cy <= cy1; ++cy) {
+      // A row's cells are contiguous in the sorted order, so the window's cells of a row are
+      // one range.
+      const int first = c.cell_start[cy * cols_ + cx0];
+      const int last = c.cell_start[cy * cols_ + cx1 + 1];
+      for (int i = first; i < last; ++i) {
+        const int u = c.u[i], v = c.v[i];
+        if (u < u0 || u > u1 || v < v0 || v > v1) continue;
+        visit(i);
+      }
+    }
+  }
 
  private:
   friend class FeatureExtractor;

@@ -1,6 +1,6 @@
 #pragma once
 // Helpers for tests that start the stack's binaries: a child process with its output in a log
-// file, a free loopback TCP port, and waiting for a gRPC health check to report SERVING.
+// file or a pipe, a free loopback TCP port, and waiting for a gRPC health check to report SERVING.
 
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -26,15 +26,24 @@ extern char** environ;
 
 namespace mav::test_support {
 
-// A child process whose stdout and stderr go to a log file; killed if still running at the end.
+// A child process whose stdout and stderr go to a log file, or (no log file) whose stdout goes
+// to a pipe the test reads with ReadAll(); killed if still running at the end.
 class Child {
  public:
-  Child(const std::vector<std::string>& argv, const std::string& log_path) {
+  explicit Child(const std::vector<std::string>& argv, const std::string& log_path = "") {
+    int fds[2] = {-1, -1};
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(),
-                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+    if (log_path.empty()) {
+      EXPECT_EQ(pipe(fds), 0);
+      posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+      posix_spawn_file_actions_addclose(&actions, fds[0]);
+      posix_spawn_file_actions_addclose(&actions, fds[1]);
+    } else {
+      posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(),
+                                       O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+    }
     std::vector<char*> args;
     args.reserve(argv.size() + 1);
     for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
@@ -43,17 +52,32 @@ class Child {
     posix_spawn_file_actions_destroy(&actions);
     EXPECT_EQ(rc, 0) << "cannot start " << argv[0];
     if (rc != 0) pid_ = -1;
+    if (fds[1] >= 0) close(fds[1]);
+    out_fd_ = fds[0];
   }
+  Child(const Child&) = delete;
+  Child& operator=(const Child&) = delete;
   ~Child() {
     if (pid_ > 0) {
       kill(pid_, SIGKILL);
       waitpid(pid_, nullptr, 0);
     }
+    if (out_fd_ >= 0) close(out_fd_);
   }
   bool running() const { return pid_ > 0; }
   void Signal(int sig) {
     if (pid_ > 0) kill(pid_, sig);
   }
+  // Reads stdout until EOF (the pipe variant only; empty for a child with a log file).
+  std::string ReadAll() {
+    std::string out;
+    char buffer[4096];
+    ssize_t n;
+    while (out_fd_ >= 0 && (n = read(out_fd_, buffer, sizeof(buffer))) > 0) out.append(buffer, n);
+    return out;
+  }
+  // Waits up to `timeout` for the exit; returns the exit status (128 + signal when killed by
+  // one) or nullopt.
   std::optional<int> Wait(std::chrono::milliseconds timeout) {
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < deadline) {
@@ -69,6 +93,7 @@ class Child {
 
  private:
   pid_t pid_ = -1;
+  int out_fd_ = -1;
 };
 
 inline int FreeTcpPort() {

@@ -36,11 +36,18 @@
 #include "services/localization/localization_service.h"
 #include "services/localization/localizer.h"
 #include "services/simulator/simulator_service.h"
+#include "tests/common/contract_server.h"
+#include "tests/common/dds_stereo_frame.h"
+#include "tests/common/fake_input_control.h"
+#include "tests/common/null_stream_sink.h"
 
 namespace mav::localization_service {
 namespace {
 
 using grpc::StatusCode;
+
+using ::mav::test_support::FakeInputControl;  // tests/common/fake_input_control.h
+using ::mav::test_support::StartOnFreePort;   // tests/common/contract_server.h
 
 constexpr int kFrames = 6;
 
@@ -137,30 +144,14 @@ class RecordingSink : public PoseSink {
   bool blocked_ = false;
 };
 
-class FakeInput : public InputControl {
- public:
-  Status SetInput(bool enabled) override {
-    enabled_ = enabled;
-    return Status::Ok();
-  }
-  bool input_enabled() const override { return enabled_; }
-
- private:
-  bool enabled_ = false;
-};
-
 class LocalizationContractTest : public ::testing::Test {
  protected:
   void SetUp() override {
     TestFrames();
     localizer_ = std::make_unique<Localizer>(&sink_);
     service_ = std::make_unique<LocalizationService>(localizer_.get(), &input_);
-    transport::ServerOptions options;
-    options.port = 0;
-    auto server = transport::GrpcServer::Start(options, {service_.get()},
-                                               {v1::Localization::service_full_name()});
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = std::move(*server);
+    server_ = StartOnFreePort<v1::Localization>(service_.get());
+    ASSERT_NE(server_, nullptr);
     stub_ = v1::Localization::NewStub(server_->InProcessChannel());
   }
   void TearDown() override {
@@ -227,7 +218,7 @@ class LocalizationContractTest : public ::testing::Test {
   }
 
   RecordingSink sink_;
-  FakeInput input_;
+  FakeInputControl input_;
   std::unique_ptr<Localizer> localizer_;
   std::unique_ptr<LocalizationService> service_;
   std::unique_ptr<transport::GrpcServer> server_;
@@ -381,20 +372,7 @@ TEST_F(LocalizationContractTest, ConfigureReadsAnEurocDirectory) {
 
 // A simulator service on a real loopback port as the calibration source.
 TEST_F(LocalizationContractTest, ConfigureAsksASimulatorForItsCalibration) {
-  class NullSink : public simulator_service::StreamSink {
-   public:
-    Status PublishStereo(uint64_t, const simulator_service::RenderedFrame&, bool) override {
-      return Status::Ok();
-    }
-    Status PublishImu(uint64_t, const dataset::ImuSample&) override { return Status::Ok(); }
-    Status PublishGroundTruth(uint64_t, const dataset::GroundTruthState&) override {
-      return Status::Ok();
-    }
-    Status WaitForStereoAcks(int64_t) override { return Status::Ok(); }
-    uint32_t StereoSubscribers() override { return 0; }
-    uint32_t ImuSubscribers() override { return 0; }
-    uint32_t domain() const override { return 0; }
-  } null_sink;
+  test_support::NullStreamSink null_sink;
   simulator_service::SimulatorService simulator(&null_sink);
   auto simulator_server = transport::GrpcServer::Start(transport::ServerOptions{}, {&simulator});
   ASSERT_TRUE(simulator_server.ok()) << simulator_server.status().ToString();
@@ -879,16 +857,8 @@ TEST(LocalizationDdsTest, PoseSamplesCarryTheContractFields) {
 }
 
 TEST(LocalizationDdsTest, StereoFramesAreCheckedBeforeUse) {
-  std::vector<uint8_t> left(12, 7), right(12, 9);
-  mav_dds_StereoFrame frame{};
-  frame.width = 4;
-  frame.height = 3;
-  frame.encoding = mav_dds_PIXEL_FORMAT_MONO8;
-  frame.left._buffer = left.data();
-  frame.left._length = 12;
-  frame.right._buffer = right.data();
-  frame.right._length = 12;
-  frame.crc32 = StereoCrc32(left.data(), 12, right.data(), 12);
+  test_support::DdsStereoFrame sample(4, 3, 7, 9);
+  mav_dds_StereoFrame& frame = sample.sample();
   EXPECT_TRUE(CheckStereoFrame(frame).ok());
   const dataset::StereoPair input = service_common::StereoFromDds(frame);
   EXPECT_EQ(input.left.cols, 4);

@@ -37,12 +37,16 @@
 #include "services/mapping/dds_io.h"
 #include "services/mapping/mapper.h"
 #include "services/mapping/mapping_service.h"
+#include "tests/common/contract_server.h"
+#include "tests/common/dds_stereo_frame.h"
 #include "tests/common/sanitizers.h"
 
 namespace mav::mapping_service {
 namespace {
 
 using grpc::StatusCode;
+
+using ::mav::test_support::StartOnFreePort;  // tests/common/contract_server.h
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -137,12 +141,8 @@ class MappingContractTest : public ::testing::Test {
     MappingServiceOptions options;
     options.max_voxels = 20'000'000;
     service_ = std::make_unique<MappingService>(mapper_.get(), nullptr, options);
-    transport::ServerOptions server_options;
-    server_options.port = 0;
-    auto server = transport::GrpcServer::Start(server_options, {service_.get()},
-                                               {v1::Mapping::service_full_name()});
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = std::move(*server);
+    server_ = StartOnFreePort<v1::Mapping>(service_.get());
+    ASSERT_NE(server_, nullptr);
     stub_ = v1::Mapping::NewStub(server_->InProcessChannel());
   }
   void TearDown() override {
@@ -938,16 +938,8 @@ TEST(MapperTest, LiveFramesWithGroundTruthBecomeKeyframes) {
 }
 
 TEST(MappingDdsTest, StereoFramesAreCheckedNamingTheField) {
-  std::vector<uint8_t> left(12, 3), right(12, 4);
-  mav_dds_StereoFrame frame{};
-  frame.width = 4;
-  frame.height = 3;
-  frame.encoding = mav_dds_PIXEL_FORMAT_MONO8;
-  frame.left._buffer = left.data();
-  frame.left._length = 12;
-  frame.right._buffer = right.data();
-  frame.right._length = 12;
-  frame.crc32 = service_common::StereoCrc32(left.data(), 12, right.data(), 12);
+  test_support::DdsStereoFrame sample(4, 3, 3, 4);
+  mav_dds_StereoFrame& frame = sample.sample();
   EXPECT_TRUE(service_common::CheckStereoFrame(frame).ok());
   const FrameInput input = service_common::StereoFromDds(frame);
   EXPECT_EQ(input.left.cols, 4);

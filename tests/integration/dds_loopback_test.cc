@@ -7,14 +7,8 @@
 // Each test uses a DDS domain derived from the pid so concurrent test runs do not cross-talk.
 
 #include <gtest/gtest.h>
-#include <netinet/in.h>
 #include <signal.h>
-#include <spawn.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
-#include <fcntl.h>
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -35,84 +29,17 @@
 #include "mav_sensors.h"
 #include "services/simulator/dds_io.h"
 #include "tests/common/build_paths.h"
+#include "tests/common/stack_process.h"
 #include "tests/common/test_domain.h"
-
-extern char** environ;
 
 namespace mav {
 namespace {
 
 const std::string kBinDir = mav::testing::BinaryDir() + "/bin";
 
+using ::mav::test_support::Child;  // tests/common/stack_process.h
+using ::mav::test_support::FreeTcpPort;
 using ::mav::test_support::TestDomain;  // tests/common/test_domain.h
-
-// A child process whose stdout (and stderr) go to a pipe or a file.
-class Child {
- public:
-  Child(const std::vector<std::string>& argv, const std::string& log_path = "") {
-    int fds[2] = {-1, -1};
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    if (log_path.empty()) {
-      EXPECT_EQ(pipe(fds), 0);
-      posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-      posix_spawn_file_actions_addclose(&actions, fds[0]);
-      posix_spawn_file_actions_addclose(&actions, fds[1]);
-    } else {
-      posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(),
-                                       O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-    }
-    std::vector<char*> args;
-    args.reserve(argv.size() + 1);
-    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    const int rc = posix_spawn(&pid_, args[0], &actions, nullptr, args.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    EXPECT_EQ(rc, 0) << "cannot start " << argv[0];
-    if (rc != 0) pid_ = -1;
-    if (fds[1] >= 0) close(fds[1]);
-    out_fd_ = fds[0];
-  }
-  ~Child() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    if (out_fd_ >= 0) close(out_fd_);
-  }
-  bool running() const { return pid_ > 0; }
-
-  // Reads stdout until EOF (the pipe variant only).
-  std::string ReadAll() {
-    std::string out;
-    char buffer[4096];
-    ssize_t n;
-    while (out_fd_ >= 0 && (n = read(out_fd_, buffer, sizeof(buffer))) > 0) out.append(buffer, n);
-    return out;
-  }
-  // Waits up to `timeout` for the exit; returns the exit status or nullopt (then kills it).
-  std::optional<int> Wait(std::chrono::milliseconds timeout) {
-    const auto deadline = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < deadline) {
-      int status = 0;
-      const pid_t r = waitpid(pid_, &status, WNOHANG);
-      if (r == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return std::nullopt;
-  }
-  void Signal(int sig) {
-    if (pid_ > 0) kill(pid_, sig);
-  }
-
- private:
-  pid_t pid_ = -1;
-  int out_fd_ = -1;
-};
 
 // key=value pairs of the "RESULT ..." line of `mavctl listen`.
 std::map<std::string, std::string> ParseResult(const std::string& output) {
@@ -126,19 +53,6 @@ std::map<std::string, std::string> ParseResult(const std::string& output) {
     if (eq != std::string::npos) fields[token.substr(0, eq)] = token.substr(eq + 1);
   }
   return fields;
-}
-
-int FreeTcpPort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  address.sin_port = 0;
-  EXPECT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)), 0);
-  socklen_t length = sizeof(address);
-  getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
-  close(fd);
-  return ntohs(address.sin_port);
 }
 
 TEST(DdsLoopbackTest, ASubscriberInAnotherProcessReceivesEveryStereoFrameIntact) {

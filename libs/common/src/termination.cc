@@ -9,9 +9,10 @@
 
 namespace mav {
 
-Termination Termination::AfterMs(double budget_ms) {
+Termination Termination::AfterMs(double budget_ms, const TimeSource* source) {
   Termination t;
-  const int64_t now = MonotonicNowNs();
+  t.source_ = source;
+  const int64_t now = t.NowNs();
   if (!(budget_ms > 0)) {
     t.deadline_ns_ = now;
   } else if (budget_ms * 1e6 >= static_cast<double>(kNever - now)) {
@@ -22,9 +23,12 @@ Termination Termination::AfterMs(double budget_ms) {
   return t;
 }
 
-Termination Termination::AtMonotonicNs(int64_t deadline_ns) {
+Termination Termination::AtMonotonicNs(int64_t deadline_ns) { return AtNs(deadline_ns, nullptr); }
+
+Termination Termination::AtNs(int64_t deadline_ns, const TimeSource* source) {
   Termination t;
   t.deadline_ns_ = deadline_ns;
+  t.source_ = source;
   return t;
 }
 
@@ -51,9 +55,7 @@ bool Termination::cancelled() const {
          (cancel2_ != nullptr && cancel2_->load(std::memory_order_relaxed));
 }
 
-bool Termination::expired() const {
-  return deadline_ns_ != kNever && MonotonicNowNs() >= deadline_ns_;
-}
+bool Termination::expired() const { return deadline_ns_ != kNever && NowNs() >= deadline_ns_; }
 
 Status Termination::Check(std::string_view what) const {
   if (cancelled()) return Status::Cancelled(std::string(what) + ": cancelled");
@@ -63,7 +65,7 @@ Status Termination::Check(std::string_view what) const {
 
 int64_t Termination::RemainingNs() const {
   if (deadline_ns_ == kNever) return kNever;
-  return deadline_ns_ - MonotonicNowNs();
+  return deadline_ns_ - NowNs();
 }
 
 }  // namespace mav

@@ -38,12 +38,15 @@ bool TaskContext::stale() const {
   return core_->stopping.load() || core_->generation.load() != generation_;
 }
 
+int64_t TaskContext::NowNs() const { return mav::NowNs(core_->options.time_source); }
+
 bool TaskContext::SleepUntil(int64_t wake_ns) const {
   std::unique_lock<std::mutex> lock(core_->mutex);
   while (!ShouldStop()) {
-    const int64_t now = MonotonicNowNs();
+    const int64_t now = NowNs();
     if (now >= wake_ns) return true;
-    // Wake at least every 50 ms to see a raised cancel flag or a passed deadline.
+    // Wake at least every 50 ms to see a raised cancel flag, a passed deadline or a clock that
+    // a test moved.
     const int64_t wait = std::min<int64_t>(wake_ns - now, 50'000'000);
     core_->wake_cv.wait_for(lock, std::chrono::nanoseconds(wait));
   }
@@ -199,9 +202,10 @@ void WorkQueue::WorkerLoop() {
     core.busy = true;
     task->ran = true;
     lock.unlock();
-    const int64_t start_ns = MonotonicNowNs();
+    const TimeSource* time_source = core.options.time_source;
+    const int64_t start_ns = NowNs(time_source);
     task->Run(TaskContext(&core, task->generation, task->termination));
-    const double ms = MsSince(start_ns);
+    const double ms = NsToSeconds(NowNs(time_source) - start_ns) * 1e3;
     task->phase = internal::TaskBase::kFinished;
     lock.lock();
     core.busy = false;

@@ -3,12 +3,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <thread>
 
 #include "mav/common/time.h"
+#include "tests/common/fake_time_source.h"
 
 namespace mav {
 namespace {
+
+using ::mav::test_support::FakeTimeSource;  // tests/common/fake_time_source.h
 
 TEST(TerminationTest, NeverStopsByDefault) {
   const Termination t;
@@ -29,12 +31,36 @@ TEST(TerminationTest, ExpiredBudgetReportsDeadlineExceeded) {
 }
 
 TEST(TerminationTest, DeadlinePassesInTime) {
-  const Termination t = Termination::AfterMs(20);
+  FakeTimeSource clock;
+  const Termination t = Termination::AfterMs(20, &clock);
+  EXPECT_EQ(t.deadline_ns(), clock.NowNs() + 20'000'000);
   EXPECT_FALSE(t.ShouldStop());
-  EXPECT_GT(t.RemainingNs(), 0);
-  std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  EXPECT_EQ(t.RemainingNs(), 20'000'000);
+  clock.AdvanceMs(19);
+  EXPECT_FALSE(t.ShouldStop());
+  EXPECT_EQ(t.RemainingNs(), 1'000'000);
+  clock.AdvanceMs(1);  // the deadline itself is past
   EXPECT_TRUE(t.ShouldStop());
-  EXPECT_LE(t.RemainingNs(), 0);
+  EXPECT_EQ(t.RemainingNs(), 0);
+  EXPECT_EQ(t.Check("build").code(), StatusCode::kDeadlineExceeded);
+  clock.AdvanceMs(5);
+  EXPECT_EQ(t.RemainingNs(), -5'000'000);
+}
+
+TEST(TerminationTest, CopiesAndNarrowedDeadlinesKeepTheirClock) {
+  FakeTimeSource clock;
+  const Termination t =
+      Termination::AtNs(clock.NowNs() + 10, &clock).WithDeadlineNs(clock.NowNs() + 5);
+  EXPECT_EQ(t.NowNs(), clock.NowNs());
+  EXPECT_EQ(t.RemainingNs(), 5);
+  CancelFlag flag;
+  const Termination u = t.WithCancel(flag);
+  clock.AdvanceNs(5);
+  EXPECT_TRUE(u.expired());
+  EXPECT_FALSE(u.cancelled());
+  // A zero budget expires at once on the source's time too.
+  EXPECT_EQ(Termination::AfterMs(0, &clock).deadline_ns(), clock.NowNs());
+  EXPECT_TRUE(Termination::AfterMs(0, &clock).expired());
 }
 
 TEST(TerminationTest, HugeBudgetMeansNoDeadline) {
@@ -79,8 +105,16 @@ TEST(TerminationTest, EarlierDeadlineWins) {
 TEST(TimeTest, MsAndSecondsSince) {
   const int64_t start = MonotonicNowNs() - 2'000'000;  // 2 ms ago
   EXPECT_GE(MsSince(start), 2.0);
-  EXPECT_LT(MsSince(start), 1000.0);
   EXPECT_GE(SecondsSince(start), 0.002);
+}
+
+TEST(TimeTest, NowNsReadsTheSourceOrTheMonotonicClock) {
+  FakeTimeSource clock(42);
+  EXPECT_EQ(NowNs(&clock), 42);
+  clock.AdvanceNs(8);
+  EXPECT_EQ(NowNs(&clock), 50);
+  const int64_t before = MonotonicNowNs();
+  EXPECT_GE(NowNs(nullptr), before);  // the monotonic clock never goes back
 }
 
 }  // namespace

@@ -3,40 +3,33 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
-#include <chrono>
+#include <future>
+#include <memory>
 #include <random>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include "mav/common/time.h"
+#include "tests/common/fake_time_source.h"
 
 namespace mav {
 namespace {
 
-using namespace std::chrono_literals;
+using ::mav::test_support::FakeTimeSource;  // tests/common/fake_time_source.h
 
 // A task that blocks the worker until released, so tests can fill the queue deterministically.
 class Gate {
  public:
-  void Open() {
-    std::lock_guard<std::mutex> lock(mutex_);
-    open_ = true;
-    cv_.notify_all();
-  }
-  void WaitOpen() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    cv_.wait(lock, [&] { return open_; });
-  }
-  void MarkEntered() { entered_ = true; }
-  void WaitEntered() {
-    while (!entered_) std::this_thread::sleep_for(1ms);
-  }
+  void Open() { open_.set_value(); }
+  void WaitOpen() { opened_.wait(); }
+  void MarkEntered() { entered_.set_value(); }
+  void WaitEntered() { entered_.get_future().wait(); }
 
  private:
-  std::mutex mutex_;
-  std::condition_variable cv_;
-  bool open_ = false;
-  std::atomic<bool> entered_{false};
+  std::promise<void> open_;
+  std::shared_future<void> opened_ = open_.get_future().share();
+  std::promise<void> entered_;
 };
 
 Ticket<Status> BlockOn(WorkQueue* queue, Gate* gate) {
@@ -46,6 +39,24 @@ Ticket<Status> BlockOn(WorkQueue* queue, Gate* gate) {
     return Status::Ok();
   });
   gate->WaitEntered();
+  return t;
+}
+
+// Runs a task through the queue and waits for it: the worker takes tasks in order, so every task
+// queued before it has been run, skipped or discarded when this returns.
+void Drain(WorkQueue* queue) {
+  EXPECT_TRUE(queue->Submit<Status>([](const TaskContext&) { return Status::Ok(); }).Wait().ok());
+}
+
+// Submits a task that sleeps (TaskContext::SleepUntil) until the queue is reset or stopped, and
+// returns once it runs; its result is what SleepUntil returned.
+Ticket<Result<bool>> SleepUntilStale(WorkQueue* queue) {
+  std::promise<void> started;
+  auto t = queue->Submit<Result<bool>>([&started](const TaskContext& ctx) -> Result<bool> {
+    started.set_value();
+    return ctx.SleepUntil(Termination::kNever);
+  });
+  started.get_future().wait();
   return t;
 }
 
@@ -124,16 +135,21 @@ TEST(WorkQueueTest, ExpiredTerminationIsRefusedAtSubmissionAndNeverRuns) {
       },
       QueuePolicy::kReject, Termination::AfterMs(0));
   EXPECT_EQ(t.submit_status().code(), StatusCode::kDeadlineExceeded);
-  std::this_thread::sleep_for(20ms);
+  Drain(&queue);
   EXPECT_FALSE(ran);
+  EXPECT_FALSE(t.ran());
+  const WorkQueueStats s = queue.GetStats();
+  EXPECT_EQ(s.rejected, 1u);
+  EXPECT_EQ(s.submitted, 1u);  // Drain's task alone
 }
 
 TEST(WorkQueueTest, WaitWithdrawsATaskWhoseDeadlinePassedWhileQueued) {
   WorkQueue queue(WorkQueueOptions::Named("map", 4));
+  FakeTimeSource clock;
   Gate gate;
   auto blocker = BlockOn(&queue, &gate);
   std::atomic<bool> ran{false};
-  const Termination deadline = Termination::AfterMs(30);
+  const Termination deadline = Termination::AfterMs(30, &clock);
   auto t = queue.Submit<Status>(
       [&](const TaskContext&) {
         ran = true;
@@ -141,18 +157,24 @@ TEST(WorkQueueTest, WaitWithdrawsATaskWhoseDeadlinePassedWhileQueued) {
       },
       QueuePolicy::kReject, deadline);
   ASSERT_TRUE(t.accepted());
+  clock.AdvanceMs(29);
+  EXPECT_FALSE(deadline.ShouldStop());
+  EXPECT_EQ(queue.GetStats().depth, 1u);
+  clock.AdvanceMs(1);
   const Status s = t.Wait(deadline);
   EXPECT_EQ(s.code(), StatusCode::kDeadlineExceeded);
   EXPECT_EQ(queue.GetStats().depth, 0u);  // withdrawn at once, not left in the queue
   gate.Open();
   EXPECT_TRUE(blocker.Wait().ok());
-  std::this_thread::sleep_for(20ms);
+  Drain(&queue);
   EXPECT_FALSE(ran);
+  EXPECT_FALSE(t.ran());
   EXPECT_EQ(queue.GetStats().expired, 1u);
 }
 
 TEST(WorkQueueTest, TaskWhoseDeadlinePassedBeforeTheWorkerTookItIsSkipped) {
   WorkQueue queue(WorkQueueOptions::Named("q", 4));
+  FakeTimeSource clock;
   Gate gate;
   auto blocker = BlockOn(&queue, &gate);
   std::atomic<bool> ran{false};
@@ -161,24 +183,28 @@ TEST(WorkQueueTest, TaskWhoseDeadlinePassedBeforeTheWorkerTookItIsSkipped) {
         ran = true;
         return Status::Ok();
       },
-      QueuePolicy::kReject, Termination::AfterMs(10));
-  std::this_thread::sleep_for(30ms);
+      QueuePolicy::kReject, Termination::AfterMs(10, &clock));
+  ASSERT_TRUE(t.accepted());
+  clock.AdvanceMs(10);  // expires while the worker is busy with the blocker
   gate.Open();
   EXPECT_EQ(t.Wait().code(), StatusCode::kDeadlineExceeded);
   EXPECT_FALSE(ran);
+  const WorkQueueStats s = queue.GetStats();
+  EXPECT_EQ(s.expired, 1u);
+  EXPECT_EQ(s.completed, 1u);  // the blocker alone
 }
 
 TEST(WorkQueueTest, ResetCancelsWaitingTasksAndMarksTheRunningOneStale) {
   WorkQueue queue(WorkQueueOptions::Named("loc", 4));
   std::atomic<bool> saw_stale{false};
-  std::atomic<bool> started{false};
+  std::promise<void> started;
   auto running = queue.Submit<Status>([&](const TaskContext& ctx) {
-    started = true;
-    while (!ctx.stale()) std::this_thread::sleep_for(1ms);
-    saw_stale = true;
+    started.set_value();
+    ctx.SleepUntil(Termination::kNever);  // returns when the reset marks the task stale
+    saw_stale = ctx.stale();
     return Status::Ok();
   });
-  while (!started) std::this_thread::sleep_for(1ms);
+  started.get_future().wait();
   auto waiting = queue.Submit<Status>([](const TaskContext&) { return Status::Ok(); });
   const uint64_t before = queue.generation();
   const uint64_t after = queue.Reset("reconfigured");
@@ -188,29 +214,35 @@ TEST(WorkQueueTest, ResetCancelsWaitingTasksAndMarksTheRunningOneStale) {
   EXPECT_EQ(cancelled.code(), StatusCode::kCancelled);
   EXPECT_EQ(cancelled.message(), "loc: reconfigured");
   EXPECT_TRUE(running.Wait().ok());
+  EXPECT_EQ(queue.GetStats().cancelled, 1u);
 }
 
 TEST(WorkQueueTest, ResettingSubmitRunsFirst) {
   WorkQueue queue(WorkQueueOptions::Named("q", 8));
-  Gate gate;
   std::vector<std::string> order;
+  // The racer submits while the reset waits for the running task: the running task sees the
+  // reset (stale), lets the racer submit and returns only once the racer's task is queued.
+  std::promise<void> entered, reset_seen, racer_queued;
   auto blocker = queue.Submit<Status>([&](const TaskContext& ctx) {
-    gate.MarkEntered();
-    while (!ctx.stale()) std::this_thread::sleep_for(1ms);
+    entered.set_value();
+    ctx.SleepUntil(Termination::kNever);
+    reset_seen.set_value();
+    racer_queued.get_future().wait();
     return Status::Ok();
   });
-  gate.WaitEntered();
+  entered.get_future().wait();
   auto old_task = queue.Submit<Status>([&](const TaskContext&) {
     order.push_back("old");
     return Status::Ok();
   });
-  // Tasks submitted while the reset waits for the running task must run after the reset's own.
+  Ticket<Status> racer_task;
   std::thread racer([&] {
-    std::this_thread::sleep_for(5ms);
-    queue.Submit<Status>([&](const TaskContext&) {
+    reset_seen.get_future().wait();
+    racer_task = queue.Submit<Status>([&](const TaskContext&) {
       order.push_back("racer");
       return Status::Ok();
     });
+    racer_queued.set_value();
   });
   auto configure = queue.SubmitAfterReset<Status>(
       [&](const TaskContext&) {
@@ -219,40 +251,87 @@ TEST(WorkQueueTest, ResettingSubmitRunsFirst) {
       },
       "reconfigured");
   racer.join();
+  ASSERT_TRUE(racer_task.accepted());
   EXPECT_TRUE(configure.Wait().ok());
+  EXPECT_TRUE(racer_task.Wait().ok());
   EXPECT_EQ(old_task.Wait().code(), StatusCode::kCancelled);
-  auto last = queue.Submit<Status>([](const TaskContext&) { return Status::Ok(); });
-  EXPECT_TRUE(last.Wait().ok());
-  ASSERT_GE(order.size(), 1u);
-  EXPECT_EQ(order.front(), "configure");
   EXPECT_TRUE(blocker.Wait().ok());
+  EXPECT_EQ(order, (std::vector<std::string>{"configure", "racer"}));
 }
 
 TEST(WorkQueueTest, SleepUntilWakesOnReset) {
-  WorkQueue queue(WorkQueueOptions::Named("player", 2));
-  std::atomic<bool> started{false};
+  // The queue's clock never moves: only the reset can end the sleep (Reset waits for the task, so
+  // a sleep the reset did not wake would hang here).
+  FakeTimeSource clock;
+  WorkQueueOptions options = WorkQueueOptions::Named("player", 2);
+  options.time_source = &clock;
+  WorkQueue queue(options);
+  const int64_t start_ns = clock.NowNs();
+  std::promise<void> started;
   auto sleeper = queue.Submit<Result<bool>>([&](const TaskContext& ctx) -> Result<bool> {
-    started = true;
-    return ctx.SleepUntil(MonotonicNowNs() + 10'000'000'000);
+    started.set_value();
+    return ctx.SleepUntil(ctx.NowNs() + 10'000'000'000);
   });
-  while (!started) std::this_thread::sleep_for(1ms);
-  const int64_t t0 = MonotonicNowNs();
+  started.get_future().wait();
   queue.Reset("paused");
-  EXPECT_LT(MsSince(t0), 1000.0);
   Result<bool> r = sleeper.Wait();
   ASSERT_TRUE(r.ok());
-  EXPECT_FALSE(*r);
+  EXPECT_FALSE(*r);  // stopped early, not woken by the clock
+  EXPECT_EQ(clock.NowNs(), start_ns);
+}
+
+TEST(WorkQueueTest, SleepUntilReturnsWhenTheQueuesClockReachesTheWakeTime) {
+  FakeTimeSource clock;
+  WorkQueueOptions options = WorkQueueOptions::Named("player", 2);
+  options.time_source = &clock;
+  WorkQueue queue(options);
+  const int64_t wake_ns = clock.NowNs() + 40'000'000;
+  std::promise<void> started;
+  auto sleeper = queue.Submit<Result<bool>>([&](const TaskContext& ctx) -> Result<bool> {
+    started.set_value();
+    return ctx.SleepUntil(wake_ns);
+  });
+  started.get_future().wait();
+  clock.AdvanceMs(40);
+  Result<bool> r = sleeper.Wait();
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(*r);  // woke on time, not stopped
+  EXPECT_EQ(queue.generation(), 0u);
+}
+
+TEST(WorkQueueTest, RunTimesAreMeasuredOnTheQueuesClock) {
+  FakeTimeSource clock;
+  WorkQueueOptions options = WorkQueueOptions::Named("q", 4);
+  options.time_source = &clock;
+  WorkQueue queue(options);
+  for (int ms : {5, 20}) {
+    EXPECT_TRUE(queue
+                    .Submit<Status>([&clock, ms](const TaskContext&) {
+                      clock.AdvanceMs(ms);
+                      return Status::Ok();
+                    })
+                    .Wait()
+                    .ok());
+  }
+  const WorkQueueStats s = queue.GetStats();
+  EXPECT_EQ(s.run_ms.count, 2u);
+  EXPECT_DOUBLE_EQ(s.run_ms.max_ms, 20.0);
 }
 
 TEST(WorkQueueTest, StopFailsWaitingTasksAndRefusesNewOnes) {
   auto queue = std::make_unique<WorkQueue>(WorkQueueOptions::Named("q", 4));
-  Gate gate;
-  auto blocker = BlockOn(queue.get(), &gate);
+  std::atomic<bool> blocker_returned{false};
+  std::promise<void> started;
+  auto blocker = queue->Submit<Status>([&](const TaskContext& ctx) {
+    started.set_value();
+    ctx.SleepUntil(Termination::kNever);  // until Stop marks it stale
+    blocker_returned = true;
+    return Status::Ok();
+  });
+  started.get_future().wait();
   auto waiting = queue->Submit<Status>([](const TaskContext&) { return Status::Ok(); });
-  std::thread stopper([&] { queue->Stop("the service is shutting down"); });
-  std::this_thread::sleep_for(20ms);
-  gate.Open();
-  stopper.join();
+  queue->Stop("the service is shutting down");
+  EXPECT_TRUE(blocker_returned);  // Stop waited for the running task
   EXPECT_TRUE(blocker.Wait().ok());
   const Status s = waiting.Wait();
   EXPECT_EQ(s.code(), StatusCode::kUnavailable);
@@ -268,15 +347,13 @@ TEST(WorkQueueTest, TicketOutlivesTheQueue) {
   Ticket<Status> t;
   {
     WorkQueue queue(WorkQueueOptions::Named("q", 1));
-    Gate gate;
-    auto blocker = BlockOn(&queue, &gate);
+    auto blocker = SleepUntilStale(&queue);
     t = queue.Submit<Status>([](const TaskContext&) { return Status::Ok(); });
-    std::thread opener([&] {
-      std::this_thread::sleep_for(10ms);
-      gate.Open();
-    });
+    ASSERT_TRUE(t.accepted());
     queue.Stop();
-    opener.join();
+    Result<bool> slept = blocker.Wait();
+    ASSERT_TRUE(slept.ok());
+    EXPECT_FALSE(*slept);  // woken by Stop
   }
   EXPECT_EQ(t.Wait().code(), StatusCode::kUnavailable);
 }
@@ -308,7 +385,9 @@ TEST(WorkQueueStressTest, ConcurrentProducersResetsAndDeadlines) {
         auto t = queue.Submit<Result<int>>(
             [&](const TaskContext&) -> Result<int> {
               if (running.fetch_add(1) != 0) ++overlaps;
-              std::this_thread::sleep_for(std::chrono::microseconds(50));
+              // A little work, so that tasks overlap with submissions and the queue fills.
+              volatile double sink = 0;
+              for (int k = 0; k < 2000; ++k) sink = sink + k;
               running.fetch_sub(1);
               ++ran;
               return 1;
@@ -317,27 +396,27 @@ TEST(WorkQueueStressTest, ConcurrentProducersResetsAndDeadlines) {
         if (t.accepted()) ++accepted;
         (void)t.Wait(rng() % 3 == 0 ? Termination::AfterMs(1) : Termination());
         ++resolved;
+        // Resets among the submissions (24 in all), from the producers' own threads.
+        if (i % 100 == 50) queue.Reset("stress reset");
       }
     });
   }
-  std::thread resetter([&] {
-    for (int i = 0; i < 20; ++i) {
-      std::this_thread::sleep_for(2ms);
-      queue.Reset("stress reset");
-    }
-  });
   for (auto& t : producers) t.join();
-  resetter.join();
-  // Let tasks abandoned by their waiters (running on) finish.
-  while (queue.GetStats().busy || queue.GetStats().depth > 0) std::this_thread::sleep_for(1ms);
+  // Let tasks abandoned by their waiters (running on) finish: a last task, queued behind them
+  // (room for it is made first), runs after all of them.
+  queue.SetCapacity(64);
+  Drain(&queue);
   EXPECT_EQ(resolved.load(), kThreads * kPerThread);
   EXPECT_EQ(overlaps.load(), 0);
   const WorkQueueStats s = queue.GetStats();
-  EXPECT_EQ(s.submitted, static_cast<uint64_t>(accepted.load()));
+  EXPECT_EQ(s.depth, 0u);
+  EXPECT_FALSE(s.busy);
+  EXPECT_EQ(s.submitted, static_cast<uint64_t>(accepted.load()) + 1);  // + Drain's task
   EXPECT_EQ(s.submitted, s.completed + s.dropped + s.expired + s.cancelled);
-  EXPECT_EQ(s.completed, static_cast<uint64_t>(ran.load()));
-  EXPECT_EQ(s.submitted + s.rejected, static_cast<uint64_t>(kThreads * kPerThread));
-  EXPECT_LE(s.run_ms.count, 64u);
+  EXPECT_EQ(s.completed, static_cast<uint64_t>(ran.load()) + 1);
+  EXPECT_EQ(s.submitted - 1 + s.rejected, static_cast<uint64_t>(kThreads * kPerThread));
+  EXPECT_EQ(s.generation, static_cast<uint64_t>(kThreads * kPerThread / 100));
+  EXPECT_EQ(s.run_ms.count, 64u);  // the window is full
 }
 
 }  // namespace

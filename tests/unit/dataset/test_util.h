@@ -51,7 +51,6 @@ inline std::string ReadFile(const std::string& path) {
 struct RunResult {
   int exit_code = -1;  // 124 if `timeout` stopped it
   std::string output;  // stdout and stderr
-  double seconds = 0;
 };
 
 // Runs build/bin/<binary> <args> under `timeout`, so that a hang fails the test instead of
@@ -60,7 +59,6 @@ inline RunResult RunTool(const std::string& binary, const std::string& args, int
   const std::string command = "timeout " + std::to_string(timeout_s) + " " +
                               mav::testing::BinaryDir() + "/bin/" + binary + " " + args + " 2>&1";
   RunResult result;
-  const auto start = std::chrono::steady_clock::now();
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return result;
   char buffer[4096];
@@ -68,7 +66,6 @@ inline RunResult RunTool(const std::string& binary, const std::string& args, int
   while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;
 }
 

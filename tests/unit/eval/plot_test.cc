@@ -53,13 +53,10 @@ TEST_F(PlotTest, HugeOrNonFinitePositionsFinishQuickly) {
   };
   for (const Eigen::Vector3d& p : odd) {
     const std::string path = dir_ + "/plot.png";
-    const auto start = std::chrono::steady_clock::now();
+    // The call returning at all is the check (the test's ctest timeout is the deadline): with
+    // the defect it drew ~1e8 grid lines.
     const Status s = WriteTopViewPlot(path, "test", Series(p));
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ASSERT_TRUE(s.ok()) << p.transpose() << ": " << s.ToString();
-    // A normal plot takes milliseconds; the bound is loose for a loaded machine or a sanitizer.
-    EXPECT_LT(seconds, 5.0) << p.transpose();
     const cv::Mat image = cv::imread(path);
     EXPECT_EQ(image.cols, 900) << p.transpose();
     EXPECT_EQ(image.rows, 900) << p.transpose();

@@ -14,37 +14,14 @@
 #include "mav/localization/rig_odometry.h"
 #include "mav/localization/sparse_vo.h"
 #include "mav/sim/scenario.h"
+#include "tests/common/trajectory_error.h"
 
 namespace mav::localization {
 namespace {
 
 using geometry::SE3;
-
-// Mean relative translational error (%) over all start frames (step 1) and the given segment
-// lengths; a segment ends at the first frame whose ground-truth path length passes start +
-// length, and both segments are aligned by their first frame. Lengths that never fit are skipped.
-double RelativeTranslationErrorPercent(const std::vector<SE3>& truth, const std::vector<SE3>& est,
-                                       const std::vector<double>& lengths, int* segments) {
-  std::vector<double> dist(truth.size(), 0.0);
-  for (size_t k = 1; k < truth.size(); ++k) {
-    dist[k] = dist[k - 1] + (truth[k].Translation() - truth[k - 1].Translation()).norm();
-  }
-  double sum = 0;
-  int count = 0;
-  for (size_t s = 0; s < truth.size(); ++s) {
-    for (double len : lengths) {
-      size_t e = s;
-      while (e < truth.size() && dist[e] < dist[s] + len) ++e;
-      if (e == truth.size()) continue;
-      const SE3 gt = truth[s].Inverse() * truth[e];
-      const SE3 es = est[s].Inverse() * est[e];
-      sum += (gt.Translation() - es.Translation()).norm() / len;
-      ++count;
-    }
-  }
-  *segments = count;
-  return count ? 100.0 * sum / count : 0.0;
-}
+using ::mav::test_support::RelativeError;  // tests/common/trajectory_error.h
+using ::mav::test_support::RelativeTranslationError;
 
 struct SimRun {
   std::vector<SE3> truth;  // T_world_cam (rectified left camera) from the simulator
@@ -114,8 +91,9 @@ TEST_P(SimSequenceTest, RoomEasyRelativeError) {
   for (size_t k = 1; k < run.truth.size(); ++k) {
     path += (run.truth[k].Translation() - run.truth[k - 1].Translation()).norm();
   }
-  int segments = 0;
-  const double err = RelativeTranslationErrorPercent(run.truth, est, {1, 2, 5}, &segments);
+  const RelativeError rte = RelativeTranslationError(run.truth, est, {1, 2, 5});
+  const double err = rte.percent;
+  const int segments = rte.segments;
   const double end_err = (est.back().Translation() - run.truth.back().Translation()).norm();
   std::sort(ms.begin(), ms.end());
   std::printf(
@@ -215,8 +193,7 @@ TEST(DenseConsistencyTest, CleanSequenceFlagsNoFrame) {
                 *std::max_element(r.prediction_error_m.begin(), r.prediction_error_m.end()));
     EXPECT_EQ(Count(r, ReportedState::kLost), 0) << "gyro " << gyro;
     EXPECT_EQ(r.gyro_frames, gyro ? static_cast<int>(run.left.size()) - 1 : 0);
-    int segments = 0;
-    const double err = RelativeTranslationErrorPercent(run.truth, r.poses, {1, 2, 5}, &segments);
+    const double err = RelativeTranslationError(run.truth, r.poses, {1, 2, 5}).percent;
     std::printf("[ dense, gyro %d ] room-easy %zu frames: relative error %.2f %%\n", gyro,
                 run.left.size(), err);
     EXPECT_LT(err, 2.0) << "gyro " << gyro;
@@ -335,11 +312,8 @@ TEST(SparseGyroPriorTest, LearnsTheGyroOffsetKeepsItOverAResetAndTracksAsWell) {
   const Eigen::Vector3d offset(-0.02, 0.008, -0.01);  // the contest IMU's gyro offset, rad/s
   const SparseGyroRun vision = RunSparseGyro(0, offset);
   const SparseGyroRun aided = RunSparseGyro(1e-4, offset);
-  int segments = 0;
-  const double vision_err =
-      RelativeTranslationErrorPercent(run.truth, vision.poses, {1, 2, 5}, &segments);
-  const double aided_err =
-      RelativeTranslationErrorPercent(run.truth, aided.poses, {1, 2, 5}, &segments);
+  const double vision_err = RelativeTranslationError(run.truth, vision.poses, {1, 2, 5}).percent;
+  const double aided_err = RelativeTranslationError(run.truth, aided.poses, {1, 2, 5}).percent;
   double vision_rot = 0, aided_rot = 0;
   for (size_t k = 0; k < run.truth.size(); ++k) {
     vision_rot = std::max(

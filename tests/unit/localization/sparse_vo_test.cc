@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "synthetic_stereo.h"
+#include "tests/common/trajectory_error.h"
 
 namespace mav::localization {
 namespace {
@@ -180,32 +181,6 @@ SE3 Wander(int k) {
       Eigen::Vector3d(0.8 * std::sin(a), 0.2 * std::sin(1.3 * a), 1.0 * std::sin(0.5 * a)));
 }
 
-// KITTI-style relative translational error: for every start frame and segment length, the
-// segment ends at the first frame whose path length passes start + length; both segments are
-// aligned by their first frame. Returns the mean error in percent of the length.
-double RelativeTranslationErrorPercent(const std::vector<SE3>& truth, const std::vector<SE3>& est,
-                                       const std::vector<double>& lengths) {
-  std::vector<double> dist(truth.size(), 0.0);
-  for (size_t k = 1; k < truth.size(); ++k) {
-    dist[k] = dist[k - 1] + (truth[k].Translation() - truth[k - 1].Translation()).norm();
-  }
-  double sum = 0;
-  int count = 0;
-  for (size_t s = 0; s < truth.size(); ++s) {
-    for (double len : lengths) {
-      size_t e = s;
-      while (e < truth.size() && dist[e] < dist[s] + len) ++e;
-      if (e == truth.size()) continue;
-      const SE3 gt = truth[s].Inverse() * truth[e];
-      const SE3 es = est[s].Inverse() * est[e];
-      sum += (gt.Translation() - es.Translation()).norm() / len;
-      ++count;
-    }
-  }
-  EXPECT_GT(count, 0);
-  return count ? 100.0 * sum / count : 1e9;
-}
-
 class SequenceTest : public ::testing::TestWithParam<SparseVoMode> {};
 
 TEST_P(SequenceTest, RelativeErrorOnAShortSequenceWithNoise) {
@@ -227,7 +202,10 @@ TEST_P(SequenceTest, RelativeErrorOnAShortSequenceWithNoise) {
     // The world frame is the first camera.
     est.push_back(truth.front() * r->T_world_cam);
   }
-  const double err = RelativeTranslationErrorPercent(truth, est, {0.25, 0.5, 1.0});
+  const test_support::RelativeError rte =
+      test_support::RelativeTranslationError(truth, est, {0.25, 0.5, 1.0});
+  ASSERT_GT(rte.segments, 0);
+  const double err = rte.percent;
   std::printf("[ %s ] relative translational error %.3f %%\n", SparseVoModeName(GetParam()), err);
   // Measured 0.54 % (subpixel) and 2.27 % (pixel) when written.
   EXPECT_LT(err, GetParam() == SparseVoMode::kSubpixel ? 1.0 : 3.0);

@@ -31,18 +31,32 @@ TEST(MatthewsCorrelationTest, UndefinedIsZero) {
   EXPECT_EQ(MatthewsCorrelation(0, 0, 0, 0), 0.0);
 }
 
+// The row of the two tests below: 6 voxels; truth occupied at 2; computed occupied at 4 and
+// unknown at 5; a box 2 voxels long.
+OccupancyGrid HandMadeRowTruth() {
+  OccupancyGrid truth(Geometry(6, 1, 1), VoxelState::kFree);
+  truth.set({2, 0, 0}, VoxelState::kOccupied);
+  return truth;
+}
+OccupancyGrid HandMadeRowComputed() {
+  OccupancyGrid computed(Geometry(6, 1, 1), VoxelState::kFree);
+  computed.set({4, 0, 0}, VoxelState::kOccupied);
+  computed.set({5, 0, 0}, VoxelState::kUnknown);
+  return computed;
+}
+CollisionEvalOptions HandMadeRowOptions() {
+  CollisionEvalOptions options;
+  options.box_size = Eigen::Vector3d(0.2, 0.1, 0.1);
+  return options;
+}
+
 // A 1-D row of 6 voxels, box of 2 voxels, step 1 -> 5 positions, checked by hand.
 //   truth:    F F O F F F     positions: [0,1]=free [1,2]=hit [2,3]=hit [3,4]=free [4,5]=free
 //   computed: F F F F O U     positions: [0,1]=free [1,2]=free [2,3]=free [3,4]=hit [4,5]=hit
 // -> TP 0, FN 2 (positions 1, 2), TN 1 (position 0), FP 2 (positions 3, 4).
 TEST(EvaluateCollisionsTest, HandMadeRow) {
-  const GridGeometry g = Geometry(6, 1, 1);
-  OccupancyGrid truth(g, VoxelState::kFree), computed(g, VoxelState::kFree);
-  truth.set({2, 0, 0}, VoxelState::kOccupied);
-  computed.set({4, 0, 0}, VoxelState::kOccupied);
-  computed.set({5, 0, 0}, VoxelState::kUnknown);
-  CollisionEvalOptions options;
-  options.box_size = Eigen::Vector3d(0.2, 0.1, 0.1);
+  OccupancyGrid truth = HandMadeRowTruth(), computed = HandMadeRowComputed();
+  CollisionEvalOptions options = HandMadeRowOptions();
   const auto r = EvaluateCollisions(truth, computed, options);
   ASSERT_TRUE(r.ok()) << r.status().ToString();
   EXPECT_EQ(r->correct_collision, 0);
@@ -56,13 +70,8 @@ TEST(EvaluateCollisionsTest, HandMadeRow) {
 }
 
 TEST(EvaluateCollisionsTest, UnknownHandlingIsAnOption) {
-  const GridGeometry g = Geometry(6, 1, 1);
-  OccupancyGrid truth(g, VoxelState::kFree), computed(g, VoxelState::kFree);
-  truth.set({2, 0, 0}, VoxelState::kOccupied);
-  computed.set({4, 0, 0}, VoxelState::kOccupied);
-  computed.set({5, 0, 0}, VoxelState::kUnknown);
-  CollisionEvalOptions options;
-  options.box_size = Eigen::Vector3d(0.2, 0.1, 0.1);
+  OccupancyGrid truth = HandMadeRowTruth(), computed = HandMadeRowComputed();
+  CollisionEvalOptions options = HandMadeRowOptions();
   options.computed_unknown_is_occupied = false;
   const auto r = EvaluateCollisions(truth, computed, options);
   ASSERT_TRUE(r.ok());

@@ -13,20 +13,12 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tests/common/stereo_rig.h"
+
 namespace mav::mapping {
 namespace {
 
-// EuRoC-like rectified rig.
-camera::RectifiedStereo Stereo() {
-  camera::RectifiedStereo s;
-  s.width = 752;
-  s.height = 480;
-  s.fx = s.fy = 450.0;
-  s.cx = 376.0;
-  s.cy = 240.0;
-  s.baseline = 0.11;
-  return s;
-}
+using ::mav::test_support::CenteredEurocLikeRig;  // tests/common/stereo_rig.h
 
 // A fronto-parallel plane with a seeded random texture, seen at integer disparity d: the right
 // image is the left one shifted by d pixels, right(u) = left(u + d), so every left pixel has
@@ -71,8 +63,9 @@ class OctomapMapperPlaneTest : public ::testing::Test {
     auto mapper = OctomapMapper::Create(options_);
     ASSERT_TRUE(mapper.ok()) << mapper.status().ToString();
     mapper_ = std::make_unique<OctomapMapper>(std::move(*mapper));
-    PlanePair(Stereo(), kDisparity, 7, &left_, &right_);
-    const Status status = mapper_->InsertKeyframe(left_, right_, Stereo(), CameraPose());
+    PlanePair(CenteredEurocLikeRig(), kDisparity, 7, &left_, &right_);
+    const Status status =
+        mapper_->InsertKeyframe(left_, right_, CenteredEurocLikeRig(), CameraPose());
     ASSERT_TRUE(status.ok()) << status.ToString();
     mapper_->Finish();
   }
@@ -340,8 +333,8 @@ TEST(OctomapMapperTest, BadInputsNameTheFieldAndLeaveTheMapUnchanged) {
   for (const BadInputCase& c : cases) {
     SCOPED_TRACE(c.name);
     cv::Mat left, right;
-    PlanePair(Stereo(), kDisparity, 3, &left, &right);
-    camera::RectifiedStereo stereo = Stereo();
+    PlanePair(CenteredEurocLikeRig(), kDisparity, 3, &left, &right);
+    camera::RectifiedStereo stereo = CenteredEurocLikeRig();
     geometry::SE3 pose = CameraPose();
     c.corrupt(&left, &right, &stereo, &pose);
     const Status status = mapper->InsertKeyframe(left, right, stereo, pose);
@@ -399,7 +392,7 @@ TEST(OctomapMapperTest, UntexturedPairInsertsNothing) {
   auto mapper = OctomapMapper::Create();
   ASSERT_TRUE(mapper.ok());
   const cv::Mat flat(480, 752, CV_8UC1, cv::Scalar(128));
-  ASSERT_TRUE(mapper->InsertKeyframe(flat, flat, Stereo(), CameraPose()).ok());
+  ASSERT_TRUE(mapper->InsertKeyframe(flat, flat, CenteredEurocLikeRig(), CameraPose()).ok());
   EXPECT_EQ(mapper->num_keyframes(), 1);
   EXPECT_EQ(mapper->stats().keyframes[0].points, 0);
   EXPECT_EQ(mapper->NumLeaves(), 0);
@@ -417,8 +410,8 @@ TEST(OctomapMapperTest, VariantsRecoverThePlane) {
     auto mapper = OctomapMapper::Create(options);
     ASSERT_TRUE(mapper.ok());
     cv::Mat left, right;
-    PlanePair(Stereo(), kDisparity, 11, &left, &right);
-    ASSERT_TRUE(mapper->InsertKeyframe(left, right, Stereo(), CameraPose()).ok());
+    PlanePair(CenteredEurocLikeRig(), kDisparity, 11, &left, &right);
+    ASSERT_TRUE(mapper->InsertKeyframe(left, right, CenteredEurocLikeRig(), CameraPose()).ok());
     auto plane = mapper->Classify(Box(3.46, 1.8, 1.3, 3.49, 2.2, 1.7));
     auto front = mapper->Classify(Box(1.8, 1.8, 1.3, 2.9, 2.2, 1.7));
     ASSERT_TRUE(plane.ok() && front.ok());
@@ -440,12 +433,12 @@ TEST(OctomapMapperTest, TwoKeyframesAccumulate) {
   auto mapper = OctomapMapper::Create();
   ASSERT_TRUE(mapper.ok());
   cv::Mat left, right;
-  PlanePair(Stereo(), kDisparity, 5, &left, &right);
-  ASSERT_TRUE(mapper->InsertKeyframe(left, right, Stereo(), CameraPose()).ok());
+  PlanePair(CenteredEurocLikeRig(), kDisparity, 5, &left, &right);
+  ASSERT_TRUE(mapper->InsertKeyframe(left, right, CenteredEurocLikeRig(), CameraPose()).ok());
   // 0.5 m to the side (world -y): the plane is at the same depth.
   const geometry::SE3 moved(CameraPose().Rotation(), Eigen::Vector3d(1.0, 1.5, 1.5));
-  PlanePair(Stereo(), kDisparity, 6, &left, &right);
-  ASSERT_TRUE(mapper->InsertKeyframe(left, right, Stereo(), moved).ok());
+  PlanePair(CenteredEurocLikeRig(), kDisparity, 6, &left, &right);
+  ASSERT_TRUE(mapper->InsertKeyframe(left, right, CenteredEurocLikeRig(), moved).ok());
   mapper->Finish();
   EXPECT_EQ(mapper->num_keyframes(), 2);
   EXPECT_EQ(*mapper->Classify(Box(3.46, 1.0, 1.3, 3.49, 2.4, 1.7)), BoxOccupancy::kOccupied);

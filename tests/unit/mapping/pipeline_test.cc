@@ -13,20 +13,12 @@
 #include "mav/mapping/collision_eval.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/scenario.h"
+#include "tests/common/stereo_rig.h"
 
 namespace mav::mapping {
 namespace {
 
-camera::RectifiedStereo Rig() {
-  camera::RectifiedStereo s;
-  s.width = 752;
-  s.height = 480;
-  s.fx = s.fy = 450.0;
-  s.cx = 376.0;
-  s.cy = 240.0;
-  s.baseline = 0.11;
-  return s;
-}
+using ::mav::test_support::CenteredEurocLikeRig;  // tests/common/stereo_rig.h
 
 TEST(MappingPipelineOptionsTest, NamesNestedFields) {
   std::string why;
@@ -46,7 +38,7 @@ TEST(MappingPipelineOptionsTest, NamesNestedFields) {
   o = MappingPipelineOptions();
   o.run_octomap = o.run_sparse_mesh = false;
   EXPECT_FALSE(o.IsValid(&why));
-  auto p = MappingPipeline::Create(Rig(), o);
+  auto p = MappingPipeline::Create(CenteredEurocLikeRig(), o);
   ASSERT_FALSE(p.ok());
   EXPECT_EQ(p.status().message().rfind("options.run_sparse_mesh", 0), 0u);
 }
@@ -101,7 +93,7 @@ TEST(MappingPipelineOptionsTest, MapPreferenceSetsMeshingGridAndPoints) {
 }
 
 TEST(MappingPipelineTest, BadInputIsRejectedAndNothingChanges) {
-  auto p = MappingPipeline::Create(Rig());
+  auto p = MappingPipeline::Create(CenteredEurocLikeRig());
   ASSERT_TRUE(p.ok()) << p.status().ToString();
   cv::Mat good(480, 752, CV_8UC1, cv::Scalar(100)), empty, wide(480, 800, CV_8UC1),
       colour(480, 752, CV_8UC3);
@@ -131,7 +123,7 @@ TEST(MappingPipelineTest, BadInputIsRejectedAndNothingChanges) {
 TEST(MappingPipelineTest, SelectsKeyframesFromThePoseStream) {
   MappingPipelineOptions options;
   options.keyframes.min_translation_m = 0.25;
-  auto p = MappingPipeline::Create(Rig(), options);
+  auto p = MappingPipeline::Create(CenteredEurocLikeRig(), options);
   ASSERT_TRUE(p.ok());
   int keyframes = 0;
   for (int i = 0; i < 100; ++i) {

@@ -11,20 +11,12 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tests/common/stereo_rig.h"
+
 namespace mav::mapping {
 namespace {
 
-// EuRoC-like rectified rig: fx b = 49.5 px m.
-camera::RectifiedStereo Rig() {
-  camera::RectifiedStereo s;
-  s.width = 752;
-  s.height = 480;
-  s.fx = s.fy = 450.0;
-  s.cx = 376.0;
-  s.cy = 240.0;
-  s.baseline = 0.11;
-  return s;
-}
+using ::mav::test_support::CenteredEurocLikeRig;  // tests/common/stereo_rig.h
 
 // Camera at `position` looking along world +x (camera x = world -y, camera y = world -z).
 geometry::SE3 PoseLookingAlongX(const Eigen::Vector3d& position) {
@@ -102,10 +94,10 @@ TEST(SparsePointsOptionsTest, NamesTheInvalidField) {
   EXPECT_FALSE(o.IsValid(&why));
   EXPECT_NE(why.find("bucket_cols"), std::string::npos) << why;
 
-  auto cloud = SparsePointCloud::Create(Rig(), o);
+  auto cloud = SparsePointCloud::Create(CenteredEurocLikeRig(), o);
   ASSERT_FALSE(cloud.ok());
   EXPECT_NE(cloud.status().message().find("options.bucket_cols"), std::string::npos);
-  camera::RectifiedStereo bad = Rig();
+  camera::RectifiedStereo bad = CenteredEurocLikeRig();
   bad.baseline = -1;
   cloud = SparsePointCloud::Create(bad);
   ASSERT_FALSE(cloud.ok());
@@ -115,7 +107,7 @@ TEST(SparsePointsOptionsTest, NamesTheInvalidField) {
 // Known 3D points observed exactly from three keyframes: every point is triangulated where it is
 // and carries exactly the keyframes that saw it.
 TEST(SparsePointsTest, MergesExactObservationsWithRightVisibility) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   const SyntheticPoints wall = MakeWallPoints(80, 3);
   SparsePointsOptions options;
   options.target_points_per_keyframe = 1000;  // keep everything: this test is about merging
@@ -169,7 +161,7 @@ TEST(SparsePointsTest, MergesExactObservationsWithRightVisibility) {
 
 // Noisy disparities: the merged position is the inverse-variance mean, within the stereo noise.
 TEST(SparsePointsTest, NoisyTriangulationWithinBound) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   const SyntheticPoints wall = MakeWallPoints(60, 5);
   SparsePointsOptions options;
   options.target_points_per_keyframe = 1000;
@@ -202,7 +194,7 @@ TEST(SparsePointsTest, NoisyTriangulationWithinBound) {
 }
 
 TEST(SparsePointsTest, GatesRejectWrongDescriptorDepthAndOldKeyframes) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   const SyntheticPoints wall = MakeWallPoints(20, 7);
   SparsePointsOptions options;
   options.target_points_per_keyframe = 1000;
@@ -249,7 +241,7 @@ TEST(SparsePointsTest, GatesRejectWrongDescriptorDepthAndOldKeyframes) {
 // single-view points supported by the other keyframe's matches, and points the other keyframe
 // cannot see (unchecked), are kept.
 TEST(SparsePointsTest, VerificationRejectsSingleViewOutliers) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   std::mt19937_64 rng(17);
   std::uniform_real_distribution<double> y(-1.5, 1.5), z(0.5, 2.5);
   std::uniform_int_distribution<int> byte(0, 255), cls(0, 3);
@@ -349,27 +341,47 @@ TEST(SparsePointsTest, VerificationRejectsSingleViewOutliers) {
   EXPECT_EQ(cloud->Points(false).size(), 80u);
 }
 
-// The stereo matches that were not selected but that a neighbouring keyframe reproduced become
-// extra lines of sight (SightPoints), never the wrong-disparity ones.
-TEST(SparsePointsTest, SightPointsAddVerifiedUnselectedMatches) {
-  const camera::RectifiedStereo rig = Rig();
+// The scene of the sight-line tests: a wall of 60 points that two keyframes 0.42 m apart both
+// see whole, with 10 points selected per keyframe and no merging, so that most stereo matches
+// stay unselected.
+struct TwoViewWall {
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   const SyntheticPoints good = MakeWallPoints(60, 5);
-  SparsePointsOptions options;
-  options.target_points_per_keyframe = 10;
-  options.merge_window_keyframes = 0;
-  auto cloud = SparsePointCloud::Create(rig, options);
-  ASSERT_TRUE(cloud.ok());
   const geometry::SE3 poses[2] = {PoseLookingAlongX({0.0, 0.0, 1.5}),
                                   PoseLookingAlongX({0.3, 0.3, 1.5})};
-  for (int k = 0; k < 2; ++k) {
+
+  static SparsePointsOptions Options() {
+    SparsePointsOptions options;
+    options.target_points_per_keyframe = 10;
+    options.merge_window_keyframes = 0;
+    return options;
+  }
+  // Keyframe k's observation of every wall point (a test failure for one it does not see).
+  std::vector<StereoObservation> Observations(int k) const {
     std::vector<StereoObservation> obs;
     for (size_t i = 0; i < good.p_world.size(); ++i) {
       const auto o = Observe(rig, poses[k], good.p_world[i], good.classes[i], good.descriptors[i]);
-      ASSERT_TRUE(o.has_value()) << "point " << i << " outside keyframe " << k;
-      obs.push_back(*o);
-      if (k == 1 && i < 5) obs.back().disparity += 6.0f;  // wrong depth: reproduces nothing
+      EXPECT_TRUE(o.has_value()) << "point " << i << " outside keyframe " << k;
+      if (o.has_value()) obs.push_back(*o);
     }
-    ASSERT_TRUE(cloud->AddKeyframeObservations(obs, poses[k]).ok());
+    return obs;
+  }
+};
+
+// The stereo matches that were not selected but that a neighbouring keyframe reproduced become
+// extra lines of sight (SightPoints), never the wrong-disparity ones.
+TEST(SparsePointsTest, SightPointsAddVerifiedUnselectedMatches) {
+  const TwoViewWall scene;
+  const SyntheticPoints& good = scene.good;
+  auto cloud = SparsePointCloud::Create(scene.rig, TwoViewWall::Options());
+  ASSERT_TRUE(cloud.ok());
+  for (int k = 0; k < 2; ++k) {
+    std::vector<StereoObservation> obs = scene.Observations(k);
+    ASSERT_EQ(obs.size(), good.p_world.size());
+    if (k == 1) {
+      for (size_t i = 0; i < 5; ++i) obs[i].disparity += 6.0f;  // wrong depth: reproduces nothing
+    }
+    ASSERT_TRUE(cloud->AddKeyframeObservations(obs, scene.poses[k]).ok());
   }
   EXPECT_EQ(cloud->num_points(), 20);
   const std::vector<MapPoint> all = cloud->AllPoints();
@@ -394,22 +406,13 @@ TEST(SparsePointsTest, SightPointsAddVerifiedUnselectedMatches) {
 // The extra lines of sight are capped (memory bounded by configuration); the ones beyond are
 // counted, the points themselves are unaffected.
 TEST(SparsePointsTest, SightLinesAreCappedAndTheDropsCounted) {
-  const camera::RectifiedStereo rig = Rig();
-  const SyntheticPoints good = MakeWallPoints(60, 5);
-  SparsePointsOptions options;
-  options.target_points_per_keyframe = 10;
-  options.merge_window_keyframes = 0;
+  const TwoViewWall scene;
+  SparsePointsOptions options = TwoViewWall::Options();
   options.max_sight_lines = 30;
-  auto cloud = SparsePointCloud::Create(rig, options);
+  auto cloud = SparsePointCloud::Create(scene.rig, options);
   ASSERT_TRUE(cloud.ok());
-  const geometry::SE3 poses[2] = {PoseLookingAlongX({0.0, 0.0, 1.5}),
-                                  PoseLookingAlongX({0.3, 0.3, 1.5})};
   for (int k = 0; k < 2; ++k) {
-    std::vector<StereoObservation> obs;
-    for (size_t i = 0; i < good.p_world.size(); ++i) {
-      obs.push_back(*Observe(rig, poses[k], good.p_world[i], good.classes[i], good.descriptors[i]));
-    }
-    ASSERT_TRUE(cloud->AddKeyframeObservations(obs, poses[k]).ok());
+    ASSERT_TRUE(cloud->AddKeyframeObservations(scene.Observations(k), scene.poses[k]).ok());
   }
   EXPECT_EQ(cloud->num_points(), 20);
   EXPECT_EQ(cloud->SightPoints().size() - cloud->AllPoints().size(), 30u);
@@ -424,7 +427,7 @@ TEST(SparsePointsTest, SightLinesAreCappedAndTheDropsCounted) {
 // 10 spread points per keyframe few of them are taken; the foreground budget takes every verified
 // one in the second keyframe (the first has nothing to verify against).
 TEST(SparsePointsTest, ForegroundBudgetTakesThinStructuresInFrontOfAWall) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   // A regular wall (a random one would depend on the compiler's argument evaluation order):
   // 20 x 10 points over y in [-2, 2], z in [0.5, 2.5] at x = 4, ~25 px apart in the images.
   SyntheticPoints scene;
@@ -505,7 +508,7 @@ TEST(SparsePointsOptionsTest, NamesTheInvalidVerificationField) {
 // The per-keyframe budget bounds the selection; with apply_all_reobservations every
 // re-observation of an existing point is applied on top of it.
 TEST(SparsePointsTest, BudgetAndApplyAllReobservations) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   const SyntheticPoints wall = MakeWallPoints(80, 9);
   for (const bool apply_all : {false, true}) {
     SparsePointsOptions options;
@@ -542,7 +545,7 @@ TEST(SparsePointsTest, BudgetAndApplyAllReobservations) {
 }
 
 TEST(SparsePointsTest, BadInputNamesTheFieldAndLeavesTheCloudUnchanged) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   auto cloud = SparsePointCloud::Create(rig);
   ASSERT_TRUE(cloud.ok());
   StereoObservation o;
@@ -586,7 +589,7 @@ class PlaneImagesTest : public ::testing::Test {
   static constexpr int kShift = 12;      // px between the two keyframes
 
   void SetUp() override {
-    const camera::RectifiedStereo rig = Rig();
+    const camera::RectifiedStereo rig = CenteredEurocLikeRig();
     wide_.create(rig.height, rig.width + kDisparity + kShift);
     cv::RNG rng(21);
     cv::Mat noise(wide_.size(), CV_8UC1);
@@ -596,7 +599,7 @@ class PlaneImagesTest : public ::testing::Test {
   }
   // Left/right images of a camera moved `shift` px to the right.
   void Pair(int shift, cv::Mat* left, cv::Mat* right) const {
-    const camera::RectifiedStereo rig = Rig();
+    const camera::RectifiedStereo rig = CenteredEurocLikeRig();
     *left = wide_(cv::Rect(shift, 0, rig.width, rig.height)).clone();
     *right = wide_(cv::Rect(shift + kDisparity, 0, rig.width, rig.height)).clone();
   }
@@ -604,7 +607,7 @@ class PlaneImagesTest : public ::testing::Test {
 };
 
 TEST_F(PlaneImagesTest, TriangulatesAboutOneHundredSpreadPointsAtTheRightDepth) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   auto cloud = SparsePointCloud::Create(rig);
   ASSERT_TRUE(cloud.ok());
   cv::Mat left, right;
@@ -639,7 +642,7 @@ TEST_F(PlaneImagesTest, TriangulatesAboutOneHundredSpreadPointsAtTheRightDepth) 
 }
 
 TEST_F(PlaneImagesTest, SecondKeyframeReobservesTheSamePoints) {
-  const camera::RectifiedStereo rig = Rig();
+  const camera::RectifiedStereo rig = CenteredEurocLikeRig();
   auto cloud = SparsePointCloud::Create(rig);
   ASSERT_TRUE(cloud.ok());
   const Eigen::Vector3d c0(1.0, 2.0, 1.5);

@@ -62,7 +62,6 @@ TEST_F(PlannerTest, AroundTheWall) {
   EXPECT_GT(r->duration_s, 0);
   EXPECT_NEAR(r->trajectory.duration_s(), r->duration_s, 1e-9);
   EXPECT_GT(r->timings.total_ms, 0);
-  EXPECT_GE(r->timings.total_ms, r->timings.planning_ms());
 }
 
 TEST_F(PlannerTest, StraightWhenTheLineIsFree) {
@@ -187,7 +186,6 @@ TEST_F(PlannerTest, WithoutARoadmapAFreshPrmStarRunsPerLeg) {
   auto r = PlanPath(map(), roadmap(), request);
   ASSERT_TRUE(r.ok()) << r.status().ToString();
   ASSERT_TRUE(r->ok()) << r->message;
-  EXPECT_GE(r->timings.search_ms, 250);
   EXPECT_GE(MinClearanceAlong(map(), *r), 0.5);
   // The same with no roadmap at all.
   r = PlanPath(map(), nullptr, request);

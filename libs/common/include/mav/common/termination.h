@@ -13,7 +13,9 @@
 //     ...
 //   }
 //
-// Copies are cheap (an int64 and a shared pointer) and may be polled from any thread.
+// Copies are cheap (an int64, a pointer and shared pointers) and may be polled from any thread.
+// The deadline is on the monotonic clock, or on a TimeSource given at creation (tests drive it by
+// hand); the source must outlive the Termination and its copies.
 
 #include <atomic>
 #include <cstdint>
@@ -23,6 +25,7 @@
 #include <string_view>
 
 #include "mav/common/status.h"
+#include "mav/common/time.h"
 
 namespace mav {
 
@@ -45,15 +48,17 @@ class Termination {
   // Never stops on its own (no deadline, no flag).
   Termination() = default;
   static Termination Never() { return {}; }
-  // Stops `budget_ms` from now (<= 0: already expired).
-  static Termination AfterMs(double budget_ms);
+  // Stops `budget_ms` from now (<= 0: already expired), on `source`'s time (null: monotonic).
+  static Termination AfterMs(double budget_ms, const TimeSource* source = nullptr);
   // Stops when MonotonicNowNs() reaches `deadline_ns` (kNever = no deadline).
   static Termination AtMonotonicNs(int64_t deadline_ns);
+  // Stops when `source`'s time reaches `deadline_ns` (null: as AtMonotonicNs).
+  static Termination AtNs(int64_t deadline_ns, const TimeSource* source);
 
   // A copy that also stops when `flag` is raised. Two flags at most (the caller's, e.g. a
   // client that went away, and the owner's, e.g. a shutdown); a third is a bug (MAV_CHECK).
   Termination WithCancel(const CancelFlag& flag) const;
-  // A copy whose deadline is the earlier of this one's and `deadline_ns`.
+  // A copy whose deadline is the earlier of this one's and `deadline_ns` (on this one's clock).
   Termination WithDeadlineNs(int64_t deadline_ns) const;
 
   bool cancelled() const;
@@ -66,9 +71,12 @@ class Termination {
   int64_t deadline_ns() const { return deadline_ns_; }
   // Nanoseconds left before the deadline (<= 0 when passed; kNever without a deadline).
   int64_t RemainingNs() const;
+  // The time the deadline is measured on: its TimeSource's, else MonotonicNowNs().
+  int64_t NowNs() const { return mav::NowNs(source_); }
 
  private:
   int64_t deadline_ns_ = kNever;
+  const TimeSource* source_ = nullptr;  // null: the monotonic clock
   std::shared_ptr<const std::atomic<bool>> cancel_;
   std::shared_ptr<const std::atomic<bool>> cancel2_;
 };

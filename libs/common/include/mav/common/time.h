@@ -21,6 +21,22 @@ int64_t MonotonicNowNs();
 // Wall clock (UNIX epoch) for stamping live data.
 int64_t WallNowNs();
 
+// A monotonic clock that can be replaced, for code whose tests must control time: a work queue's
+// paced sleeps and run times, a Termination's deadline. Production code passes no source (null)
+// and reads MonotonicNowNs() directly, so the hot paths pay a null test, not a virtual call; a
+// test passes its own source and moves it by hand instead of sleeping. A source must outlive
+// everything that was given it.
+class TimeSource {
+ public:
+  virtual ~TimeSource() = default;
+  virtual int64_t NowNs() const = 0;
+};
+
+// `source`'s time, or MonotonicNowNs() when `source` is null.
+inline int64_t NowNs(const TimeSource* source) {
+  return source == nullptr ? MonotonicNowNs() : source->NowNs();
+}
+
 // The one way to time a piece of work: take `const int64_t start_ns = MonotonicNowNs();`, then
 // read MsSince(start_ns) for a per-call time (fields named `_ms`) or SecondsSince(start_ns) for
 // a whole run (fields named `_s`).

@@ -44,6 +44,7 @@
 #include "mav/common/stats.h"
 #include "mav/common/status.h"
 #include "mav/common/termination.h"
+#include "mav/common/time.h"
 
 namespace mav {
 
@@ -58,6 +59,10 @@ struct WorkQueueOptions {
   std::string name = "work queue";  // names the queue in messages ("localization: queue full")
   size_t capacity = 16;             // waiting tasks (the running one not counted), >= 1
   size_t stats_window = 1000;       // run times kept for the statistics, >= 1
+  // The clock of TaskContext::SleepUntil / NowNs and of the run times; null: the monotonic
+  // clock. Tests pass one they move by hand (it must outlive the queue). A task's deadline is on
+  // its Termination's own clock.
+  const TimeSource* time_source = nullptr;
 
   static WorkQueueOptions Named(std::string name, size_t capacity) {
     WorkQueueOptions o;
@@ -150,8 +155,10 @@ class TaskContext {
   bool stale() const;
   const Termination& termination() const { return termination_; }
   bool ShouldStop() const { return stale() || termination_.ShouldStop(); }
-  // Sleeps until MonotonicNowNs() >= wake_ns; returns false early when ShouldStop() becomes true
-  // (Reset, Stop, or the task's own termination). For paced work such as real-time playback.
+  // The queue's clock (WorkQueueOptions::time_source; by default MonotonicNowNs()).
+  int64_t NowNs() const;
+  // Sleeps until NowNs() >= wake_ns; returns false early when ShouldStop() becomes true (Reset,
+  // Stop, or the task's own termination). For paced work such as real-time playback.
   bool SleepUntil(int64_t wake_ns) const;
 
  private:

@@ -71,7 +71,7 @@ BENCHMARK(BM_SimulationStep)->Unit(benchmark::kMicrosecond);
 
 void BM_WeightSchedule(benchmark::State& state) {
   control::WeightModel m;
-  if (state.range(0) == 2) m.sources.push_back({20, 0.01, 0.017});
+  if (state.range(0) == 2) m.pose_sources.push_back({20, 0.01, 0.017});
   for (auto _ : state) benchmark::DoNotOptimize(control::ComputeWeightSchedule(m)->iterations);
   state.SetLabel(std::to_string(state.range(0)) + " pose source(s)");
 }

@@ -10,9 +10,9 @@ bool ControlConfig::IsValid(std::string* why) const {
     if (why != nullptr) *why = message;
     return false;
   };
-  if (pose_frames.size() != autopilot.estimator.sources.size()) {
+  if (pose_frames.size() != autopilot.estimator.pose_sources.size()) {
     return fail("estimator.pose_sources: " + std::to_string(pose_frames.size()) +
-                " frame names for " + std::to_string(autopilot.estimator.sources.size()) +
+                " frame names for " + std::to_string(autopilot.estimator.pose_sources.size()) +
                 " sources");
   }
   for (size_t i = 0; i < pose_frames.size(); ++i) {
@@ -51,7 +51,7 @@ ControlConfig ConfigForFlightTask(const dataset::FlightTask& task,
   ControlConfig config;
   config.autopilot = eval::AutopilotOptionsForTask(task, controller);
   config.pose_frames.clear();
-  for (size_t i = 0; i < config.autopilot.estimator.sources.size(); ++i) {
+  for (size_t i = 0; i < config.autopilot.estimator.pose_sources.size(); ++i) {
     config.pose_frames.push_back("pose_sensor" + std::to_string(i));
   }
   config.lockstep = lockstep;

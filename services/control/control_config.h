@@ -21,7 +21,7 @@ struct LockstepPoseOptions {
 
 struct ControlConfig {
   control::AutopilotOptions autopilot;
-  // The child_frame_id of each pose source's poses (parallel to autopilot.estimator.sources):
+  // The child_frame_id of each pose source's poses (parallel to autopilot.estimator.pose_sources):
   // non-empty and distinct; "pose_sensor<i>" for the simulator's flight mode.
   std::vector<std::string> pose_frames = {"pose_sensor0"};
   // Parallel to pose_frames; empty = none lock-stepped. Needs `lockstep`.

@@ -43,7 +43,7 @@ Status ControlCore::Configure(const ControlConfig& config, const Termination& de
     LockstepSource& s = lockstep_[i];
     s.enabled = true;
     s.latency_ns = SecondsToNs(l.latency_s);
-    s.period_ns = PeriodNs(config.autopilot.estimator.sources[i].rate_hz);
+    s.period_ns = PeriodNs(config.autopilot.estimator.pose_sources[i].rate_hz);
     s.wait_ns = SecondsToNs(l.wait_s);
   }
   lockstep_frames_missed_ = 0;
@@ -52,7 +52,7 @@ Status ControlCore::Configure(const ControlConfig& config, const Termination& de
   loop_ms_.Clear();
   last_error_.clear();
   MAV_LOG(kInfo) << "configured: " << control::ControllerTypeName(config.autopilot.controller)
-                 << " controller, " << config.autopilot.estimator.sources.size()
+                 << " controller, " << config.autopilot.estimator.pose_sources.size()
                  << " pose source(s), IMU " << config.autopilot.estimator.imu_rate_hz << " Hz"
                  << (config.lockstep ? ", lock-step" : "");
   return Status::Ok();
@@ -337,7 +337,7 @@ ControlCoreState ControlCore::GetState() const {
   s.last_pose_arrival_ns = autopilot_->last_pose_arrival_ns();
   s.poses_gated = autopilot_->estimator().counters().poses_rejected;
   const control::Estimator& estimator = autopilot_->estimator();
-  for (size_t i = 0; i < estimator.options().sources.size(); ++i) {
+  for (size_t i = 0; i < estimator.options().pose_sources.size(); ++i) {
     s.source_frames.push_back(estimator.source_frame(static_cast<int>(i)));
   }
   s.moving = autopilot_->moving();

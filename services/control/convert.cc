@@ -29,38 +29,6 @@ Status PickVector(const v1::Vector3& v, const std::string& field, Eigen::Vector3
   return Pick(v.z(), field + ".z", &target->z());
 }
 
-// The library names vector components [0] [1] [2] and its own option paths; the proto's are .x
-// .y .z and the request's field names.
-std::string ProtoPath(std::string message) {
-  static const std::vector<std::pair<std::string, std::string>> kPrefixes = {
-      {"paper_gains.", "gains."},
-      {"estimator.sources[", "estimator.pose_sources["},
-      {"estimator.weights_override", "estimator.explicit_weights"},
-      {"allocation.min_rotor_speed_radps", "min_rotor_speed_radps"},
-  };
-  for (const auto& [from, to] : kPrefixes) {
-    if (message.rfind(from, 0) == 0) {
-      message = to + message.substr(from.size());
-      break;
-    }
-  }
-  static const char* const kAxes[3] = {".x", ".y", ".z"};
-  static const char* const kIndices[3] = {"[0]", "[1]", "[2]"};
-  const size_t colon = message.find(':');
-  for (int i = 0; i < 3; ++i) {
-    const std::string index = kIndices[i];
-    const size_t at = message.find(index);
-    // Only a vector's component right before the colon ("position_zeta[1]: ..."), not a list
-    // index ("pose_sources[1].rate_hz").
-    if (at != std::string::npos && at + index.size() == colon &&
-        message.find("rotor_") == std::string::npos) {
-      message.replace(at, index.size(), kAxes[i]);
-      break;
-    }
-  }
-  return message;
-}
-
 Status VehicleFromProto(const v1::VehicleParameters& v, control::VehicleParameters* out) {
   MAV_RETURN_IF_ERROR(Pick(v.mass_kg(), "vehicle.mass_kg", &out->mass_kg));
   MAV_RETURN_IF_ERROR(PickVector(v.inertia_kgm2(), "vehicle.inertia_kgm2", &out->inertia_kgm2));
@@ -143,13 +111,13 @@ Status EstimatorFromProto(const v1::EstimatorConfig& e, control::EstimatorOption
         std::to_string(kMaxSources));
   }
   const int count = std::max(1, e.pose_sources_size());
-  out->sources.assign(static_cast<size_t>(count), control::PoseSourceOptions());
+  out->pose_sources.assign(static_cast<size_t>(count), control::PoseSourceOptions());
   lockstep->assign(static_cast<size_t>(count), LockstepPoseOptions());
   frames->clear();
   double max_delay_s = 0.1;
   for (int i = 0; i < count; ++i) {
     const std::string field = "estimator.pose_sources[" + std::to_string(i) + "]";
-    control::PoseSourceOptions& src = out->sources[static_cast<size_t>(i)];
+    control::PoseSourceOptions& src = out->pose_sources[static_cast<size_t>(i)];
     std::string frame = "pose_sensor" + std::to_string(i);
     double delay_s = 0.1;
     if (i < e.pose_sources_size()) {
@@ -208,9 +176,11 @@ Status EstimatorFromProto(const v1::EstimatorConfig& e, control::EstimatorOption
       if (!std::isfinite(value))
         return NotFinite(std::string("estimator.explicit_weights.") + name);
     }
-    out->weights_override = control::CorrectionWeights::Decoupled(
+    out->explicit_weights = control::CorrectionWeights::Decoupled(
         w.position(), w.velocity(), w.accel_offset(), w.orientation(), w.gyro_offset());
   }
+  // The library names its fields as control.proto does (pose_sources, explicit_weights).
+  if (std::string why; !out->IsValid(&why)) return Status::InvalidArgument("estimator." + why);
   return Status::Ok();
 }
 
@@ -230,9 +200,7 @@ Result<control::PaperControllerGains> PaperGainsFromProto(const v1::ControllerGa
   MAV_RETURN_IF_ERROR(Pick(g.attitude_zeta(), field + ".attitude_zeta", &out.attitude_zeta));
   MAV_RETURN_IF_ERROR(Pick(g.yaw_omega_radps(), field + ".yaw_omega_radps", &out.yaw_omega_radps));
   MAV_RETURN_IF_ERROR(Pick(g.yaw_zeta(), field + ".yaw_zeta", &out.yaw_zeta));
-  if (std::string why; !out.IsValid(&why)) {
-    return Status::InvalidArgument(ProtoPath(field + "." + why));
-  }
+  if (std::string why; !out.IsValid(&why)) return Status::InvalidArgument(field + "." + why);
   return out;
 }
 
@@ -283,7 +251,14 @@ Result<ControlConfig> ConfigFromProto(const v1::ControlConfigureRequest& r) {
   MAV_RETURN_IF_ERROR(Pick(r.min_rotor_speed_radps(), "min_rotor_speed_radps",
                            &o.allocation.min_rotor_speed_radps));
   config.lockstep = r.lockstep();
-  if (std::string why; !config.IsValid(&why)) return Status::InvalidArgument(ProtoPath(why));
+  // The allocation's one field is at the request's top level.
+  if (std::string why; !o.allocation.IsValid(&why) || !o.allocation.FitsVehicle(o.vehicle, &why)) {
+    return Status::InvalidArgument(why);
+  }
+  // Every field was checked above under its request path; the library's own check of the
+  // whole (the same paths, but for gains, which PaperGainsFromProto checked as "gains") is the
+  // backstop.
+  if (std::string why; !config.IsValid(&why)) return Status::InvalidArgument(why);
   return config;
 }
 
@@ -310,16 +285,16 @@ void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out) {
   pe->set_buffer_s(e.buffer_s);
   pe->set_accel_noise_sigma(e.accel_noise_sigma);
   pe->set_gyro_noise_sigma(e.gyro_noise_sigma);
-  for (size_t i = 0; i < e.sources.size(); ++i) {
+  for (size_t i = 0; i < e.pose_sources.size(); ++i) {
     v1::ControlPoseSource* p = pe->add_pose_sources();
     p->set_frame_id(i < config.pose_frames.size() ? config.pose_frames[i] : "");
-    p->set_rate_hz(e.sources[i].rate_hz);
+    p->set_rate_hz(e.pose_sources[i].rate_hz);
     // The delays only size the buffer; the effective buffer is reported above.
-    p->set_position_sigma_m(e.sources[i].position_sigma_m);
-    p->set_orientation_sigma_rad(e.sources[i].orientation_sigma_rad);
-    p->set_tilt_sigma_rad(e.sources[i].tilt_sigma_rad);
-    p->set_align_tilt_s(e.sources[i].align_tilt_s);
-    ToProto(e.sources[i].T_body_sensor, p->mutable_t_body_sensor());
+    p->set_position_sigma_m(e.pose_sources[i].position_sigma_m);
+    p->set_orientation_sigma_rad(e.pose_sources[i].orientation_sigma_rad);
+    p->set_tilt_sigma_rad(e.pose_sources[i].tilt_sigma_rad);
+    p->set_align_tilt_s(e.pose_sources[i].align_tilt_s);
+    ToProto(e.pose_sources[i].T_body_sensor, p->mutable_t_body_sensor());
     if (i < config.lockstep_poses.size()) {
       p->set_lockstep_latency_s(config.lockstep_poses[i].latency_s);
       p->set_lockstep_wait_s(config.lockstep_poses[i].wait_s);
@@ -334,8 +309,8 @@ void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out) {
   pe->set_decoupled_weights(!e.couple_tilt);
   pe->set_steady_state_weights_only(!e.transient_weights);
   pe->set_converge_s(e.converge_s);
-  if (e.weights_override.has_value()) {
-    const control::CorrectionWeights& w = *e.weights_override;
+  if (e.explicit_weights.has_value()) {
+    const control::CorrectionWeights& w = *e.explicit_weights;
     v1::DecoupledWeights* pw = pe->mutable_explicit_weights();
     pw->set_position(w.horizontal(0, 0));
     pw->set_velocity(w.horizontal(1, 0));

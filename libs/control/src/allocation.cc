@@ -17,6 +17,14 @@ bool AllocationOptions::IsValid(std::string* why) const {
   return true;
 }
 
+bool AllocationOptions::FitsVehicle(const VehicleParameters& vehicle, std::string* why) const {
+  if (min_rotor_speed_radps >= vehicle.max_rotor_speed_radps) {
+    if (why) *why = "min_rotor_speed_radps: must be below vehicle.max_rotor_speed_radps";
+    return false;
+  }
+  return true;
+}
+
 Allocator::Allocator(const VehicleParameters& vehicle, const AllocationOptions& options)
     : vehicle_(vehicle), options_(options), mixer_(vehicle.Mixer()) {
   std::string why;

@@ -68,9 +68,7 @@ bool AutopilotOptions::IsValid(std::string* why) const {
     return fail("gust_threshold_mps2: must be positive");
   }
   if (!(gust_hold_s >= 0 && std::isfinite(gust_hold_s))) return fail("gust_hold_s: must be >= 0");
-  if (allocation.min_rotor_speed_radps >= vehicle.max_rotor_speed_radps) {
-    return fail("allocation.min_rotor_speed_radps: must be below vehicle.max_rotor_speed_radps");
-  }
+  if (!prefixed("allocation.", allocation.FitsVehicle(vehicle, w))) return false;
   return true;
 }
 

@@ -28,25 +28,25 @@ bool EstimatorOptions::IsValid(std::string* why) const {
   if (!(pose_gate_rad >= 0 && std::isfinite(pose_gate_rad))) {
     return fail("pose_gate_rad: must be >= 0 (0 = off)");
   }
-  for (size_t i = 0; i < sources.size(); ++i) {
-    const Eigen::Vector3d t = sources[i].T_body_sensor.Translation();
-    if (!t.allFinite() || !sources[i].T_body_sensor.Rotation().coeffs().allFinite()) {
-      return fail("sources[" + std::to_string(i) + "].T_body_sensor: must be finite");
+  for (size_t i = 0; i < pose_sources.size(); ++i) {
+    const Eigen::Vector3d t = pose_sources[i].T_body_sensor.Translation();
+    if (!t.allFinite() || !pose_sources[i].T_body_sensor.Rotation().coeffs().allFinite()) {
+      return fail("pose_sources[" + std::to_string(i) + "].T_body_sensor: must be finite");
     }
-    if (!(sources[i].align_tilt_s >= 0 && std::isfinite(sources[i].align_tilt_s))) {
-      return fail("sources[" + std::to_string(i) + "].align_tilt_s: must be >= 0 (0 = off)");
+    if (!(pose_sources[i].align_tilt_s >= 0 && std::isfinite(pose_sources[i].align_tilt_s))) {
+      return fail("pose_sources[" + std::to_string(i) + "].align_tilt_s: must be >= 0 (0 = off)");
     }
   }
-  if (weights_override) {
-    const CorrectionWeights& w = *weights_override;
+  if (explicit_weights) {
+    const CorrectionWeights& w = *explicit_weights;
     if (!w.horizontal.allFinite() || !w.vertical.allFinite() || !w.heading.allFinite()) {
-      return fail("weights_override: must be finite");
+      return fail("explicit_weights: must be finite");
     }
     if (!(w.position() > 0 && w.position() <= 1)) {
-      return fail("weights_override.position: must be in (0, 1]");
+      return fail("explicit_weights.position: must be in (0, 1]");
     }
     if (!(w.orientation() > 0 && w.orientation() <= 1)) {
-      return fail("weights_override.orientation: must be in (0, 1]");
+      return fail("explicit_weights.orientation: must be in (0, 1]");
     }
   }
   return ToWeightModel().IsValid(why);
@@ -65,9 +65,10 @@ WeightModel EstimatorOptions::ToWeightModel() const {
   m.couple_tilt = couple_tilt;
   // The offsets are learnt against the sources' own tilt while the estimate converges.
   m.trust_tilt_s = std::min(converge_s, 60.0);
-  m.sources.clear();
-  for (const PoseSourceOptions& s : sources) {
-    m.sources.push_back({s.rate_hz, s.position_sigma_m, s.orientation_sigma_rad, s.tilt_sigma_rad});
+  m.pose_sources.clear();
+  for (const PoseSourceOptions& s : pose_sources) {
+    m.pose_sources.push_back(
+        {s.rate_hz, s.position_sigma_m, s.orientation_sigma_rad, s.tilt_sigma_rad});
   }
   return m;
 }
@@ -84,11 +85,12 @@ Estimator::Estimator(const EstimatorOptions& options, WeightSchedule weights)
   const size_t capacity =
       static_cast<size_t>(std::ceil(2.0 * options.buffer_s * options.imu_rate_hz)) + 4;
   ring_.resize(capacity);
-  updates_per_source_.assign(options.sources.size(), 0);
-  frames_.assign(options.sources.size(), geometry::SE3());
+  updates_per_source_.assign(options.pose_sources.size(), 0);
+  frames_.assign(options.pose_sources.size(), geometry::SE3());
   // Room for every pose of every source within the buffer at up to 4x its nominal rate.
   double poses = 0;
-  for (const PoseSourceOptions& s : options.sources) poses += 4.0 * s.rate_hz * options.buffer_s;
+  for (const PoseSourceOptions& s : options.pose_sources)
+    poses += 4.0 * s.rate_hz * options.buffer_s;
   applied_.resize(static_cast<size_t>(std::ceil(poses)) + 4);
 }
 
@@ -97,8 +99,8 @@ void Estimator::Reset() {
   initialized_ = false;
   current_ = EstimatorState();
   counters_ = EstimatorCounters();
-  updates_per_source_.assign(options_.sources.size(), 0);
-  frames_.assign(options_.sources.size(), geometry::SE3());
+  updates_per_source_.assign(options_.pose_sources.size(), 0);
+  frames_.assign(options_.pose_sources.size(), geometry::SE3());
   applied_size_ = 0;
 }
 
@@ -142,7 +144,7 @@ void Estimator::FeedImu(const ImuMeasurement& imu) {
 
 CorrectionWeights Estimator::NextWeights(int source) {
   const uint64_t k = updates_per_source_[source]++;
-  if (options_.weights_override) return *options_.weights_override;
+  if (options_.explicit_weights) return *options_.explicit_weights;
   const auto& transient = weights_.transient[source];
   return options_.transient_weights && k < transient.size() ? transient[k]
                                                             : weights_.steady[source];
@@ -150,7 +152,7 @@ CorrectionWeights Estimator::NextWeights(int source) {
 
 void Estimator::Correct(const PoseMeasurement& pose, const CorrectionWeights& w,
                         EstimatorState* x) {
-  const PoseSourceOptions& src = options_.sources[pose.source];
+  const PoseSourceOptions& src = options_.pose_sources[pose.source];
   const Eigen::Quaterniond q_meas =
       pose.T_world_sensor.Rotation() * src.T_body_sensor.Rotation().conjugate();
   const Eigen::Vector3d r_p = pose.T_world_sensor.Translation() -
@@ -181,7 +183,7 @@ void Estimator::Correct(const PoseMeasurement& pose, const CorrectionWeights& w,
 
 Status Estimator::Gate(const PoseMeasurement& pose, const EstimatorState& x) {
   if (options_.pose_gate_m <= 0 && options_.pose_gate_rad <= 0) return Status::Ok();
-  const PoseSourceOptions& src = options_.sources[pose.source];
+  const PoseSourceOptions& src = options_.pose_sources[pose.source];
   const Eigen::Vector3d r_p = pose.T_world_sensor.Translation() -
                               (x.p_world + x.q_world_body * src.T_body_sensor.Translation());
   const Eigen::Quaterniond q_meas =
@@ -205,7 +207,7 @@ Status Estimator::Gate(const PoseMeasurement& pose, const EstimatorState& x) {
 
 PoseMeasurement Estimator::Aligned(const PoseMeasurement& pose, const EstimatorState& x,
                                    geometry::SE3* frame) const {
-  const PoseSourceOptions& src = options_.sources[pose.source];
+  const PoseSourceOptions& src = options_.pose_sources[pose.source];
   *frame = frames_[pose.source];
   PoseMeasurement out = pose;
   out.T_world_sensor = *frame * pose.T_world_sensor;
@@ -233,7 +235,7 @@ PoseMeasurement Estimator::Aligned(const PoseMeasurement& pose, const EstimatorS
 
 Status Estimator::FeedPose(const PoseMeasurement& raw) {
   PoseMeasurement pose = raw;
-  if (pose.source < 0 || pose.source >= static_cast<int>(options_.sources.size())) {
+  if (pose.source < 0 || pose.source >= static_cast<int>(options_.pose_sources.size())) {
     return Status::InvalidArgument("source: unknown pose source " + std::to_string(pose.source));
   }
   if (size_ == 0 || pose.t_ns < At(0).imu.t_ns || (initialized_ && pose.t_ns < init_t_ns_)) {
@@ -255,7 +257,7 @@ Status Estimator::FeedPose(const PoseMeasurement& raw) {
   EstimatorState x = At(j).state;
   if (!initialized_) {
     // The first pose initialises position and orientation (at the sample before its stamp).
-    const PoseSourceOptions& src = options_.sources[pose.source];
+    const PoseSourceOptions& src = options_.pose_sources[pose.source];
     const geometry::SE3 T_world_body = pose.T_world_sensor * src.T_body_sensor.Inverse();
     x = EstimatorState();
     x.p_world = T_world_body.Translation();

@@ -52,17 +52,18 @@ bool WeightModel::IsValid(std::string* why) const {
   if (!non_negative(initial_gyro_offset_sigma)) {
     return fail("initial_gyro_offset_sigma: must be >= 0");
   }
-  if (sources.empty()) return fail("sources: at least one pose source");
-  for (size_t i = 0; i < sources.size(); ++i) {
-    const std::string f = "sources[" + std::to_string(i) + "].";
-    if (!positive(sources[i].rate_hz) || sources[i].rate_hz > imu_rate_hz) {
+  if (pose_sources.empty()) return fail("pose_sources: at least one pose source");
+  for (size_t i = 0; i < pose_sources.size(); ++i) {
+    const std::string f = "pose_sources[" + std::to_string(i) + "].";
+    if (!positive(pose_sources[i].rate_hz) || pose_sources[i].rate_hz > imu_rate_hz) {
       return fail(f + "rate_hz: must be in (0, imu_rate_hz]");
     }
-    if (!positive(sources[i].position_sigma_m)) return fail(f + "position_sigma_m: must be > 0");
-    if (!positive(sources[i].orientation_sigma_rad)) {
+    if (!positive(pose_sources[i].position_sigma_m))
+      return fail(f + "position_sigma_m: must be > 0");
+    if (!positive(pose_sources[i].orientation_sigma_rad)) {
       return fail(f + "orientation_sigma_rad: must be > 0");
     }
-    if (!(sources[i].tilt_sigma_rad >= 0 && std::isfinite(sources[i].tilt_sigma_rad))) {
+    if (!(pose_sources[i].tilt_sigma_rad >= 0 && std::isfinite(pose_sources[i].tilt_sigma_rad))) {
       return fail(f + "tilt_sigma_rad: must be >= 0 (0 = orientation_sigma_rad)");
     }
   }
@@ -109,7 +110,7 @@ Result<WeightSchedule> ComputeWeightSchedule(const WeightModel& model) {
   if (std::string why; !model.IsValid(&why)) return Status::InvalidArgument(why);
   const int64_t imu_ns = PeriodNs(model.imu_rate_hz);
   const double h = NsToSeconds(imu_ns);
-  const int num_sources = static_cast<int>(model.sources.size());
+  const int num_sources = static_cast<int>(model.pose_sources.size());
 
   // Each source's samples fall on the IMU tick nearest to a multiple of its period; the schedule
   // repeats after the least common multiple of the periods in ticks (capped at 10 s: beyond it
@@ -118,7 +119,7 @@ Result<WeightSchedule> ComputeWeightSchedule(const WeightModel& model) {
   int64_t hyper = 1;
   for (int s = 0; s < num_sources; ++s) {
     period_ticks[s] = std::max<int64_t>(
-        1, std::llround(static_cast<double>(PeriodNs(model.sources[s].rate_hz)) / imu_ns));
+        1, std::llround(static_cast<double>(PeriodNs(model.pose_sources[s].rate_hz)) / imu_ns));
     hyper = std::lcm(hyper, period_ticks[s]);
     hyper = std::min<int64_t>(hyper, std::llround(10.0 / h));
   }
@@ -130,7 +131,7 @@ Result<WeightSchedule> ComputeWeightSchedule(const WeightModel& model) {
   const double walk_a = std::max(model.accel_offset_random_walk, 1e-5);
   const double walk_g = std::max(model.gyro_offset_random_walk, 1e-7);
   const double qba = h * walk_a * walk_a, qbg = h * walk_g * walk_g;
-  const PoseSourceNoise& first = model.sources[0];
+  const PoseSourceNoise& first = model.pose_sources[0];
   const double p0 = first.position_sigma_m * first.position_sigma_m;
   const double t0 = first.orientation_sigma_rad * first.orientation_sigma_rad;
   const double v0 = model.initial_velocity_sigma * model.initial_velocity_sigma;
@@ -175,7 +176,7 @@ Result<WeightSchedule> ComputeWeightSchedule(const WeightModel& model) {
       yaw.Predict();
       for (int s = 0; s < num_sources; ++s) {
         if (tick % period_ticks[s] != 0) continue;
-        const PoseSourceNoise& src = model.sources[s];
+        const PoseSourceNoise& src = model.pose_sources[s];
         const double rp = src.position_sigma_m * src.position_sigma_m;
         const double rt = src.orientation_sigma_rad * src.orientation_sigma_rad;
         // The source's own tilt weighs in until trust_tilt_s (see WeightModel).

@@ -34,7 +34,7 @@ std::vector<std::complex<double>> PolynomialRoots(const std::vector<double>& c) 
 
 bool PaperControllerGains::IsValid(std::string* why) const {
   for (int a = 0; a < 3; ++a) {
-    static const char* const kAxis[3] = {"[0]", "[1]", "[2]"};
+    static const char* const kAxis[3] = {".x", ".y", ".z"};  // the world axes
     const std::string axis = kAxis[a];
     if (!PositiveFinite(position_omega_radps[a])) {
       return Fail(why, "position_omega_radps" + axis + ": must be positive");

@@ -18,7 +18,7 @@ control::AutopilotOptions AutopilotOptionsForTask(const dataset::FlightTask& tas
       task.imu.accel_drift_sigma / std::sqrt(task.imu.drift_horizon_s);
   o.estimator.gyro_offset_random_walk =
       task.imu.gyro_drift_sigma / std::sqrt(task.imu.drift_horizon_s);
-  o.estimator.sources.clear();
+  o.estimator.pose_sources.clear();
   double max_delay = 0;
   for (const dataset::FlightPoseSensorSpec& s : task.pose_sensors) {
     control::PoseSourceOptions src;
@@ -26,7 +26,7 @@ control::AutopilotOptions AutopilotOptionsForTask(const dataset::FlightTask& tas
     src.position_sigma_m = std::max(s.position_sigma_m, 1e-4);
     src.orientation_sigma_rad = std::max(s.orientation_sigma_rad, 1e-4);
     src.T_body_sensor = s.T_body_sensor();
-    o.estimator.sources.push_back(src);
+    o.estimator.pose_sources.push_back(src);
     max_delay = std::max(max_delay, s.delay_s);
   }
   o.estimator.buffer_s = std::max(1.0, 2 * max_delay + 0.2);

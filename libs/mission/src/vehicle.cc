@@ -132,7 +132,7 @@ control::AutopilotOptions MissionAutopilotOptions(const dataset::FlightTask& tas
     vo.tilt_sigma_rad = options.vo_tilt_sigma_rad;
     vo.align_tilt_s = options.vo_align_tilt_s;
     vo.T_body_sensor = VehicleRigMount(options.camera_pitch_rad);
-    ap.estimator.sources = {vo};
+    ap.estimator.pose_sources = {vo};
     ap.estimator.buffer_s = std::max(1.0, 2 * options.vo_latency_s + 0.2);
   }
   ap.estimator.pose_gate_m = options.pose_gate_m;

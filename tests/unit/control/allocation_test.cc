@@ -1,5 +1,7 @@
 #include "mav/control/allocation.h"
 
+#include <string>
+
 #include <gtest/gtest.h>
 
 namespace mav::control {
@@ -135,6 +137,21 @@ TEST(VehicleTest, FireflyIsValidAndBadFieldsAreNamed) {
   v.max_rotor_speed_radps = 300;
   EXPECT_FALSE(v.IsValid(&why));
   EXPECT_NE(why.find("max_rotor_speed_radps"), std::string::npos);
+}
+
+TEST(AllocationTest, OptionsNameTheirFieldsAndMustFitTheVehicle) {
+  const VehicleParameters firefly;  // the defaults are the Firefly
+  AllocationOptions options;
+  std::string why;
+  EXPECT_TRUE(options.IsValid(&why));
+  EXPECT_TRUE(options.FitsVehicle(firefly, &why));
+  options.min_rotor_speed_radps = firefly.max_rotor_speed_radps;
+  EXPECT_TRUE(options.IsValid(&why));  // valid alone
+  EXPECT_FALSE(options.FitsVehicle(firefly, &why));
+  EXPECT_EQ(why, "min_rotor_speed_radps: must be below vehicle.max_rotor_speed_radps");
+  options.min_rotor_speed_radps = -1;
+  EXPECT_FALSE(options.IsValid(&why));
+  EXPECT_EQ(why, "min_rotor_speed_radps: must be >= 0");
 }
 
 }  // namespace

@@ -151,10 +151,10 @@ TEST(AutopilotTest, PoseLossMeansFailsafeDescentAndImuLossMeansMotorsOff) {
 
 TEST(AutopilotTest, OptionsNameTheBadField) {
   AutopilotOptions o;
-  o.estimator.sources[0].rate_hz = -1;
+  o.estimator.pose_sources[0].rate_hz = -1;
   const auto r = Autopilot::Create(o);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.status().message().find("estimator.sources[0].rate_hz"), std::string::npos);
+  EXPECT_NE(r.status().message().find("estimator.pose_sources[0].rate_hz"), std::string::npos);
   o = AutopilotOptions();
   o.pose_timeout_s = 0;
   EXPECT_NE(Autopilot::Create(o).status().message().find("pose_timeout_s"), std::string::npos);

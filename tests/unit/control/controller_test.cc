@@ -89,7 +89,7 @@ TEST(PaperControllerTest, DefaultGainsAreStableAndValid) {
   PaperControllerGains bad;
   bad.integral_gain[1] = 1000;  // beyond Routh-Hurwitz
   EXPECT_FALSE(bad.IsValid(&why));
-  EXPECT_NE(why.find("integral_gain[1]"), std::string::npos);
+  EXPECT_NE(why.find("integral_gain.y"), std::string::npos);
 }
 
 TEST(PaperControllerTest, SetGainsKeepsTheIntegralState) {

@@ -27,7 +27,7 @@ geometry::SE3 Mount() {
 
 EstimatorOptions Options() {
   EstimatorOptions o;
-  o.sources[0].T_body_sensor = Mount();
+  o.pose_sources[0].T_body_sensor = Mount();
   return o;
 }
 
@@ -183,7 +183,7 @@ TEST(EstimatorTest, TwoSourcesWithTheirMountings) {
   second.rate_hz = 20;
   second.T_body_sensor = geometry::SE3(geometry::RotationFromRollPitchYaw(-0.1, 0.2, -0.3),
                                        Eigen::Vector3d(-0.05, 0.08, 0.1));
-  o.sources.push_back(second);
+  o.pose_sources.push_back(second);
   Estimator e = *Estimator::Create(o);
   for (int64_t t = 0; t <= SecondsToNs(20); t += kImuNs) {
     e.FeedImu(ImuAt(t));
@@ -208,7 +208,7 @@ TEST(EstimatorTest, OutOfOrderPosesEqualAFilterFedInStampOrder) {
   PoseSourceOptions second;
   second.T_body_sensor = geometry::SE3(geometry::RotationFromRollPitchYaw(-0.1, 0.2, -0.3),
                                        Eigen::Vector3d(-0.05, 0.08, 0.1));
-  o.sources.push_back(second);
+  o.pose_sources.push_back(second);
   Estimator on_time = *Estimator::Create(o);
   Estimator late = *Estimator::Create(o);
   struct Pending {
@@ -264,8 +264,8 @@ struct TiltedSourceRun {
 
 TiltedSourceRun FlyWithTiltedSource(double tilt_sigma_rad, double align_tilt_s) {
   EstimatorOptions o = Options();
-  o.sources[0].tilt_sigma_rad = tilt_sigma_rad;
-  o.sources[0].align_tilt_s = align_tilt_s;
+  o.pose_sources[0].tilt_sigma_rad = tilt_sigma_rad;
+  o.pose_sources[0].align_tilt_s = align_tilt_s;
   Estimator e = *Estimator::Create(o);
   const Eigen::Quaterniond tip(Eigen::AngleAxisd(3 * M_PI / 180, Eigen::Vector3d::UnitX()));
   const Eigen::Vector3d pivot(0, 0, 1);
@@ -321,20 +321,20 @@ TEST(EstimatorTest, RejectsBadInput) {
   EXPECT_EQ(e.FeedPose(PoseAt(0, Mount())).code(), StatusCode::kOutOfRange);  // too old
   EXPECT_EQ(e.FeedPose(PoseAt(SecondsToNs(2), Mount(), 3)).code(), StatusCode::kInvalidArgument);
   EstimatorOptions bad = Options();
-  bad.sources[0].rate_hz = 0;
+  bad.pose_sources[0].rate_hz = 0;
   const auto r = Estimator::Create(bad);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.status().message().find("sources[0].rate_hz"), std::string::npos);
+  EXPECT_NE(r.status().message().find("pose_sources[0].rate_hz"), std::string::npos);
   bad = Options();
-  bad.sources[0].align_tilt_s = -1;
+  bad.pose_sources[0].align_tilt_s = -1;
   const auto align = Estimator::Create(bad);
   ASSERT_FALSE(align.ok());
-  EXPECT_NE(align.status().message().find("sources[0].align_tilt_s"), std::string::npos);
+  EXPECT_NE(align.status().message().find("pose_sources[0].align_tilt_s"), std::string::npos);
   bad = Options();
-  bad.sources[0].tilt_sigma_rad = std::nan("");
+  bad.pose_sources[0].tilt_sigma_rad = std::nan("");
   const auto tilt = Estimator::Create(bad);
   ASSERT_FALSE(tilt.ok());
-  EXPECT_NE(tilt.status().message().find("sources[0].tilt_sigma_rad"), std::string::npos);
+  EXPECT_NE(tilt.status().message().find("pose_sources[0].tilt_sigma_rad"), std::string::npos);
 }
 
 }  // namespace

@@ -84,7 +84,7 @@ TEST(EstimatorWeightsTest, TransientStartsHighAndDecaysToSteadyState) {
 
 TEST(EstimatorWeightsTest, TwoSourcesAndDecoupledModel) {
   WeightModel m;
-  m.sources.push_back(PoseSourceNoise{20, 0.01, 0.017});
+  m.pose_sources.push_back(PoseSourceNoise{20, 0.01, 0.017});
   const WeightSchedule two = *ComputeWeightSchedule(m);
   ASSERT_EQ(two.steady.size(), 2u);
   const WeightSchedule one = *ComputeWeightSchedule(WeightModel());
@@ -96,10 +96,10 @@ TEST(EstimatorWeightsTest, TwoSourcesAndDecoupledModel) {
   EXPECT_EQ(dec.steady[0].horizontal(3, 0), 0);  // no tilt correction from position
   EXPECT_NEAR(dec.steady[0].horizontal(0, 0), dec.steady[0].vertical[0], 1e-12);
   WeightModel bad;
-  bad.sources[0].position_sigma_m = 0;
+  bad.pose_sources[0].position_sigma_m = 0;
   const auto r = ComputeWeightSchedule(bad);
   ASSERT_FALSE(r.ok());
-  EXPECT_NE(r.status().message().find("sources[0].position_sigma_m"), std::string::npos);
+  EXPECT_NE(r.status().message().find("pose_sources[0].position_sigma_m"), std::string::npos);
 }
 
 // A loose tilt (a VO's): the tilt's weight from the orientation residual drops far below the
@@ -107,11 +107,11 @@ TEST(EstimatorWeightsTest, TwoSourcesAndDecoupledModel) {
 // trust_tilt_s lasts, the tilt keeps the orientation's noise.
 TEST(EstimatorWeightsTest, LooseTiltTakesTheTiltFromGravityAfterTheTrustedStart) {
   WeightModel m;
-  m.sources[0] = PoseSourceNoise{20, 0.01, 0.005, 0.17};
+  m.pose_sources[0] = PoseSourceNoise{20, 0.01, 0.005, 0.17};
   m.trust_tilt_s = 4;
   const WeightSchedule w = *ComputeWeightSchedule(m);
   WeightModel tight = m;
-  tight.sources[0].tilt_sigma_rad = 0;
+  tight.pose_sources[0].tilt_sigma_rad = 0;
   const WeightSchedule t = *ComputeWeightSchedule(tight);
   const CorrectionWeights& loose = w.steady[0];
   EXPECT_NEAR(loose.heading[0], t.steady[0].heading[0], 1e-12) << "the heading is unchanged";

@@ -39,6 +39,9 @@ struct AllocationOptions {
   bool roll_pitch_before_thrust_at_top = true;
 
   bool IsValid(std::string* why) const;
+  // Whether the options fit `vehicle` (the minimum rotor speed below its maximum); `why` names
+  // the field ("min_rotor_speed_radps: ...").
+  bool FitsVehicle(const VehicleParameters& vehicle, std::string* why) const;
 };
 
 // What the allocation did.

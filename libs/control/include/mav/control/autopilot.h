@@ -123,7 +123,7 @@ struct AutopilotState {
 
 class Autopilot {
  public:
-  // InvalidArgument naming the field ("estimator.sources[1].rate_hz: ...").
+  // InvalidArgument naming the field ("estimator.pose_sources[1].rate_hz: ...").
   static Result<Autopilot> Create(const AutopilotOptions& options);
 
   // Feeds one IMU sample and returns the rotor speeds to hold until the next one (zeros when

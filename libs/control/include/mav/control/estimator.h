@@ -16,7 +16,7 @@
 //    coupling with the horizontal position is kept); then every buffered IMU sample after t_s is
 //    re-applied, which gives the estimate a filter fed on time would have (T_body_sensor =
 //    (q_bs, t_bs) is the pose sensor's mounting);
-//  * several pose sources (EstimatorOptions::sources), each with its rate, noise and mounting;
+//  * several pose sources (EstimatorOptions::pose_sources), each with its rate, noise and mounting;
 //  * optionally, per source, a gravity alignment of a source whose world tilts as it drifts (a
 //    VO): the tilt is weighted by its own noise (tilt_sigma_rad: loose, so that the estimate's
 //    tilt comes from the IMU's specific force against the positions), and each pose is first
@@ -63,8 +63,8 @@ struct EstimatorOptions {
   // IMU history kept for re-application; a pose older than this is dropped. Must exceed the
   // largest pose delay (the contest's: 100 ms).
   double buffer_s = 1.0;
-  // IMU noise per sample and the offsets' drift, as the contest's IMU (docs/control.md, "The sensors"):
-  // white noise 0.04 m/s^2 and 0.0033937 rad/s; the offsets drift about 0.09 m/s^2 and
+  // IMU noise per sample and the offsets' drift, as the contest's IMU (docs/control.md, "The
+  // sensors"): white noise 0.04 m/s^2 and 0.0033937 rad/s; the offsets drift about 0.09 m/s^2 and
   // 6e-4 rad/s (1 sigma) over 240 s, i.e. random walks of 0.09/sqrt(240) and 6e-4/sqrt(240).
   double accel_noise_sigma = 0.04;
   double gyro_noise_sigma = 0.0033937;
@@ -74,7 +74,7 @@ struct EstimatorOptions {
   double initial_velocity_sigma = 0.2;      // m/s
   double initial_accel_offset_sigma = 0.5;  // m/s^2
   double initial_gyro_offset_sigma = 0.05;  // rad/s
-  std::vector<PoseSourceOptions> sources = std::vector<PoseSourceOptions>(1);
+  std::vector<PoseSourceOptions> pose_sources = std::vector<PoseSourceOptions>(1);
   // false: the IMU offsets stay at zero (for tests and the ablation).
   bool estimate_offsets = true;
   // false: the steady-state weights from the first pose on (slow offset learning).
@@ -83,7 +83,7 @@ struct EstimatorOptions {
   // orientation and horizontal position is kept in the model.
   bool couple_tilt = true;
   // Explicit weights for every source instead of the computed ones.
-  std::optional<CorrectionWeights> weights_override;
+  std::optional<CorrectionWeights> explicit_weights;
   // The health gate (0 = off, the default): a pose whose position differs from the estimate
   // at its stamp (through the source's mounting) by more than
   //   pose_gate_m + pose_gate_growth_mps * (time since the last accepted pose's stamp)

@@ -76,7 +76,7 @@ struct WeightModel {
   // are learnt against it. Without a turn in yaw the offsets and the tilt cannot be told apart
   // later on: gravity's tilt is only as good as the offsets learnt here.
   double trust_tilt_s = 0;
-  std::vector<PoseSourceNoise> sources = std::vector<PoseSourceNoise>(1);
+  std::vector<PoseSourceNoise> pose_sources = std::vector<PoseSourceNoise>(1);
 
   bool IsValid(std::string* why) const;
 };

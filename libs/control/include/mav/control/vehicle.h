@@ -37,7 +37,7 @@ struct ImuMeasurement {
 
 // One pose of a pose sensor (vision, motion capture): the sensor frame in the world at the
 // stamp t_ns (the time it was measured, not when it arrived). `source` indexes
-// EstimatorOptions::sources.
+// EstimatorOptions::pose_sources.
 struct PoseMeasurement {
   int64_t t_ns = 0;
   int source = 0;

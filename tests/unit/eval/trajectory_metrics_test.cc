@@ -139,6 +139,7 @@ namespace {
 
 std::vector<dataset::StampedPose> Stamped(const std::vector<geometry::SE3>& poses, int64_t t0_ns) {
   std::vector<dataset::StampedPose> out;
+  out.reserve(poses.size());
   for (size_t i = 0; i < poses.size(); ++i) {
     out.push_back({t0_ns + static_cast<int64_t>(i) * 50'000'000, poses[i]});
   }
@@ -147,6 +148,7 @@ std::vector<dataset::StampedPose> Stamped(const std::vector<geometry::SE3>& pose
 
 std::vector<geometry::SE3> Straight(int n, double step_m) {
   std::vector<geometry::SE3> poses;
+  poses.reserve(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
     poses.emplace_back(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i * step_m, 0, 0));
   }

@@ -77,6 +77,9 @@ Status VehicleFromProto(const v1::VehicleParameters& v, control::VehicleParamete
   if (!(out->motor_time_constant_up_s > 0) || !(out->motor_time_constant_down_s > 0)) {
     return Status::InvalidArgument("vehicle.motor_time_constant_up_s/down_s: must be positive");
   }
+  // The library names its fields as the request does; checked here so that a later check that
+  // relies on the vehicle (the allocation's fit) never blames another field for it.
+  if (std::string why; !out->IsValid(&why)) return Status::InvalidArgument("vehicle." + why);
   return Status::Ok();
 }
 

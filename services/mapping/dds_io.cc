@@ -77,7 +77,6 @@ Status DdsIo::SetInput(bool enabled) {
   const std::optional<SessionConfig> session =
       mapper_ != nullptr ? mapper_->config() : std::nullopt;
   if (enabled && !session) return Status::FailedPrecondition("DDS input: no session");
-  const PoseSource source = session ? session->pose_source : PoseSource::kNone;
   // Always rebuilt on enable: the session's pose source may have changed.
   StopReaderLocked();
   if (!enabled) {
@@ -86,6 +85,14 @@ Status DdsIo::SetInput(bool enabled) {
                    << " rejected)";
     return Status::Ok();
   }
+  // All or nothing: a reader or the loop that fails to start leaves the input off.
+  Status started = StartInputLocked(*session);
+  if (!started.ok()) StopReaderLocked();
+  return started;
+}
+
+Status DdsIo::StartInputLocked(const SessionConfig& session) {
+  const PoseSource source = session.pose_source;
   using transport::Qos;
   MAV_ASSIGN_OR_RETURN(auto stereo, transport::Reader<mav_dds_StereoFrame>::Create(
                                         participant_, stereo_topic_, Qos::SensorStream()));
@@ -116,9 +123,8 @@ Status DdsIo::SetInput(bool enabled) {
         kPoseBatch);
   }
   if (pose_reader_) {
-    const std::optional<SessionConfig> config = mapper_->config();
-    const geometry::SE3 T_body_cam0 =
-        config ? config->calibration.T_body_cam0 : geometry::SE3::Identity();
+    // The same session as the pose source: its rig.
+    const geometry::SE3 T_body_cam0 = session.calibration.T_body_cam0;
     read_loop_->AddReader<mav_dds_PoseWithCovariance>(
         &*pose_reader_,
         [this, T_body_cam0](const mav_dds_PoseWithCovariance& pose) {

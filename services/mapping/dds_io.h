@@ -68,6 +68,8 @@ class DdsIo : public InputControl {
   // Counts a pose sample that fails the codec's checks and logs the first and every 100th.
   void RejectPose(const Status& why);
   void StopReaderLocked();
+  // Creates the readers of `session`'s input and starts the loop (control_mutex_ held).
+  Status StartInputLocked(const SessionConfig& session);
 
   Mapper* mapper_ = nullptr;
   // Declaration order = reverse destruction order: readers, topics, participant.

@@ -428,7 +428,7 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
   }
   // Real time: step k+1 is due at its data time on the pacer's schedule.
   const int64_t t_next = t_ns + loaded->sim.step_ns();
-  if (!context.SleepUntil(loaded->pacer.DueNs(t_next, MonotonicNowNs()))) return std::nullopt;
+  if (!context.SleepUntil(loaded->pacer.DueNs(t_next, context.NowNs()))) return std::nullopt;
   std::optional<ActuatorInput> input = io_->WaitForCommand(
       std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::max(), 0, &received);
   count_received();
@@ -471,7 +471,7 @@ Status Flight::Run(const TaskContext& context, const FlightRun& run) {
   MAV_CHECK(loaded != nullptr);
   if (!loaded->config.lockstep) {  // lock-step has no real-time factor
     loaded->pacer = RealTimePacer(loaded->config.real_time_factor, kMaxLatenessNs);
-    loaded->pacer.Anchor(loaded->sim.t_ns(), MonotonicNowNs());
+    loaded->pacer.Anchor(loaded->sim.t_ns(), context.NowNs());
   }
   const int64_t until_ns = run.until_s > 0 ? SecondsToNs(run.until_s) : 0;
   const int rotor_count = loaded->config.simulation.vehicle.rotor_count;

@@ -235,7 +235,7 @@ Status Player::Run(const TaskContext& context, bool paced, int64_t frames) {
     if (next_imu_ < source->imu().size()) {
       t_first = std::min(t_first, source->imu()[next_imu_].t_ns);
     }
-    pacer_.Anchor(t_first, MonotonicNowNs());
+    pacer_.Anchor(t_first, context.NowNs());
   }
   int64_t published = 0;
   while (!context.ShouldStop() && (frames < 0 || published < frames)) {
@@ -251,7 +251,7 @@ Status Player::Run(const TaskContext& context, bool paced, int64_t frames) {
     if (next_frame_ >= source->info().frames) {
       if (frames < 0 && pacing.loop) {
         RewindLocked();
-        pacer_.Anchor(source->FrameTimeNs(0), MonotonicNowNs());
+        pacer_.Anchor(source->FrameTimeNs(0), context.NowNs());
       } else {
         if (frames < 0) state_ = PlayerState::kFinished;  // a Step ends PAUSED
         return Status::Ok();
@@ -280,7 +280,7 @@ Status Player::PublishNextFrame(const TaskContext& context, bool paced) {
   if (paced) pacer_.set_factor(factor);
   auto wait_due = [&](int64_t t_ns) {
     if (!paced) return !context.ShouldStop();
-    return context.SleepUntil(pacer_.DueNs(t_ns, MonotonicNowNs()));
+    return context.SleepUntil(pacer_.DueNs(t_ns, context.NowNs()));
   };
 
   // Render (or fetch the pre-rendered) frame first so that the IMU and the frame go out together.

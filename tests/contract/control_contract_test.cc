@@ -320,6 +320,9 @@ TEST_F(ControlContractTest, ConfigureRejectsBadInputNamingTheField) {
                          "vehicle.mass_kg: not finite");
   ExpectConfigureInvalid([](R* r) { r->mutable_vehicle()->set_rotor_directions(2, 3); },
                          "vehicle.rotor_directions[2]");
+  // The vehicle's own field is named, not the allocation's minimum that depends on it.
+  ExpectConfigureInvalid([](R* r) { r->mutable_vehicle()->set_max_rotor_speed_radps(-1); },
+                         "vehicle.max_rotor_speed_radps");
   ExpectConfigureInvalid([](R* r) { r->mutable_estimator()->set_imu_rate_hz(5); },
                          "estimator.imu_rate_hz");
   ExpectConfigureInvalid([](R* r) { r->mutable_estimator()->set_buffer_s(20); },

@@ -59,8 +59,11 @@ RateMeter::RateMeter(int64_t window_ns, int64_t stale_ns)
 
 void RateMeter::Add(int64_t now_ns) {
   if (!any_) {
+    // The first event opens the first window; a window counts the events after its start, so
+    // that N events a second read N Hz.
     any_ = true;
-    window_start_ns_ = now_ns;
+    window_start_ns_ = last_ns_ = now_ns;
+    return;
   }
   ++count_;
   last_ns_ = now_ns;
@@ -75,9 +78,8 @@ double RateMeter::Rate(int64_t now_ns) const {
   if (!any_ || now_ns - last_ns_ > stale_ns_) return 0.0;
   if (rate_hz_ > 0) return rate_hz_;
   // No whole window yet (a short lock-stepped flight): the events so far.
-  return count_ >= 2 && last_ns_ > window_start_ns_
-             ? static_cast<double>(count_ - 1) * 1e9 /
-                   static_cast<double>(last_ns_ - window_start_ns_)
+  return count_ >= 1 && last_ns_ > window_start_ns_
+             ? static_cast<double>(count_) * 1e9 / static_cast<double>(last_ns_ - window_start_ns_)
              : 0.0;
 }
 

@@ -73,18 +73,8 @@ int RunLocalization(const std::vector<std::string>& args) {
                 "dense: the per-frame consistency check (DEGRADED frames; =false: every tracked "
                 "frame is published as measured)");
   flags.AddInt64("step", &step, "frames between segment starts of the relative error", 1, 1000000);
-  std::vector<std::string> positional;
-  bool help = false;
-  if (Status s = flags.Parse(args, &positional, &help); !s.ok()) {
-    return Fail(kCommand, s.message(), 2);
-  }
-  if (help) {
-    std::cout << flags.Help();
-    return 0;
-  }
-  if (options.data.empty() || !positional.empty()) {
-    std::cerr << kCommand << ": --data DIR is required\n" << flags.Help();
-    return 2;
+  if (std::optional<int> done = ParseDataCommand(flags, args, kCommand, options.data)) {
+    return *done;
   }
   if (method_name != "all") {
     const std::optional<localization::Method> m = localization::ParseMethod(method_name);

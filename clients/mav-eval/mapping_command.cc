@@ -257,19 +257,7 @@ Status WriteFiles(const MappingFlags& f, const std::string& out_dir, const eval:
 int RunMapping(const std::vector<std::string>& args) {
   MappingFlags f;
   FlagParser flags = MakeFlags(&f);
-  std::vector<std::string> positional;
-  bool help = false;
-  if (Status s = flags.Parse(args, &positional, &help); !s.ok()) {
-    return Fail(kCommand, s.message(), 2);
-  }
-  if (help) {
-    std::cout << flags.Help();
-    return 0;
-  }
-  if (f.data.empty() || !positional.empty()) {
-    std::cerr << kCommand << ": --data DIR is required\n" << flags.Help();
-    return 2;
-  }
+  if (std::optional<int> done = ParseDataCommand(flags, args, kCommand, f.data)) return *done;
   eval::MappingEvalOptions options;
   Result<MappingPipelineOptions> pipeline = PipelineOptions(f, flags);
   if (!pipeline.ok()) return Fail(kCommand, pipeline.status().message(), 2);

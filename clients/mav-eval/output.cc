@@ -10,6 +10,24 @@ int Fail(const std::string& command, const std::string& message, int code) {
   return code;
 }
 
+std::optional<int> ParseDataCommand(FlagParser& flags, const std::vector<std::string>& args,
+                                    const std::string& command, const std::string& data) {
+  std::vector<std::string> positional;
+  bool help = false;
+  if (Status s = flags.Parse(args, &positional, &help); !s.ok()) {
+    return Fail(command, s.message(), 2);
+  }
+  if (help) {
+    std::cout << flags.Help();
+    return 0;
+  }
+  if (data.empty() || !positional.empty()) {
+    std::cerr << command << ": --data DIR is required\n" << flags.Help();
+    return 2;
+  }
+  return std::nullopt;
+}
+
 Status PrintReport(const eval::Report& report, const std::string& json_path) {
   std::fputs(eval::ReportText(report).c_str(), stdout);
   std::fflush(stdout);

@@ -1,21 +1,21 @@
 #include "services/common/call_watch.h"
 
 #include <chrono>
-#include <condition_variable>
 #include <mutex>
-#include <thread>
 #include <unordered_set>
 
 #include <grpcpp/server_context.h>
 
 #include "mav/common/time.h"
+#include "mav/common/work_queue.h"
 
 namespace mav::service_common {
 
-// The process's one watcher thread: started with the first watch, asleep while nothing is
-// watched, joined at exit. Every access to a watched context happens under `mutex_`, and a
-// CallWatch leaves the set under it before its context can go, so no context is read after its
-// call ended.
+// The process's one watcher: a task on its own work queue (libs/common's WorkQueue), submitted
+// with the first watch and ending when no call is watched, so an idle process polls nothing; the
+// queue is stopped and joined at exit. Every access to a watched context happens under `mutex_`,
+// and a CallWatch leaves the set under it before its context can go, so no context is read after
+// its call ended.
 class CallWatcher {
  public:
   static CallWatcher& Instance() {
@@ -26,8 +26,14 @@ class CallWatcher {
   void Add(CallWatch* call) {
     std::lock_guard<std::mutex> lock(mutex_);
     calls_.insert(call);
-    if (!thread_.joinable()) thread_ = std::thread([this] { Loop(); });
-    wake_.notify_one();
+    if (polling_) return;
+    polling_ = true;
+    const Ticket<Status> ticket = queue_.Submit<Status>([this](const TaskContext& context) {
+      Poll(context);
+      return Status::Ok();
+    });
+    // Refused only while the queue stops (process exit): nothing is watched then.
+    if (!ticket.accepted()) polling_ = false;
   }
   void Remove(CallWatch* call) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -38,40 +44,37 @@ class CallWatcher {
     return static_cast<int>(calls_.size());
   }
 
-  ~CallWatcher() {
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stop_ = true;
-    }
-    wake_.notify_one();
-    if (thread_.joinable()) thread_.join();
-  }
-
  private:
   CallWatcher() = default;
 
-  void Loop() {
-    std::unique_lock<std::mutex> lock(mutex_);
-    while (!stop_) {
-      if (calls_.empty()) {
-        wake_.wait(lock, [this] { return stop_ || !calls_.empty(); });
-        continue;
+  // Runs until no call is watched (or the queue stops).
+  void Poll(const TaskContext& context) {
+    while (true) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (calls_.empty()) {
+          polling_ = false;
+          return;
+        }
+        for (CallWatch* call : calls_) {
+          // A call past its deadline is cancelled too, but its Termination says why already
+          // (DEADLINE_EXCEEDED rather than CANCELLED).
+          if (call->cancel_.cancelled() || call->termination_.expired()) continue;
+          if (call->context_->IsCancelled()) call->cancel_.Cancel();
+        }
       }
-      for (CallWatch* call : calls_) {
-        // A call past its deadline is cancelled too, but its Termination says why already
-        // (DEADLINE_EXCEEDED rather than CANCELLED).
-        if (call->cancel_.cancelled() || call->termination_.expired()) continue;
-        if (call->context_->IsCancelled()) call->cancel_.Cancel();
+      if (!context.SleepUntil(context.NowNs() + CallWatch::kPollMs * 1'000'000)) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        polling_ = false;
+        return;
       }
-      wake_.wait_for(lock, std::chrono::milliseconds(CallWatch::kPollMs), [this] { return stop_; });
     }
   }
 
   std::mutex mutex_;
-  std::condition_variable wake_;
   std::unordered_set<CallWatch*> calls_;
-  bool stop_ = false;
-  std::thread thread_;
+  bool polling_ = false;  // the poll task is queued or running
+  WorkQueue queue_{WorkQueueOptions::Named("call watch", 1)};
 };
 
 CallWatch::CallWatch(grpc::ServerContext* context)

@@ -2,9 +2,9 @@
 // The one cancellation path of every long RPC: a CallWatch turns a call's deadline and its
 // cancellation (the client cancelled, its connection dropped, or the server's shutdown grace
 // period ended) into one Termination the libraries poll. A synchronous gRPC handler cannot be
-// told that its client went away, only ask (ServerContext::IsCancelled), so one thread per
-// process asks for every watched call every kPollMs and raises the call's CancelFlag; a call
-// costs no thread of its own.
+// told that its client went away, only ask (ServerContext::IsCancelled), so one task per
+// process, on a work queue of its own, asks for every watched call every kPollMs and raises the
+// call's CancelFlag; a call costs no thread of its own.
 //
 //   grpc::Status Service::BuildMap(grpc::ServerContext* context, ...) {
 //     const CallWatch call(context);

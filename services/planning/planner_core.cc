@@ -22,7 +22,6 @@ bool EndsWith(const std::string& s, std::string_view suffix) {
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-
 std::string InstancePrefix() {
   char buf[16];
   std::snprintf(buf, sizeof(buf), "%08x", static_cast<unsigned>(WallNowNs() / 1000 & 0xffffffff));

@@ -7,7 +7,8 @@
 # Scope (which sources are checked; headers under libs/, services/, clients/ and tests/ are
 # reported through the sources that include them):
 #   default     libs/ clients/mav-sim/ clients/mav-eval/ tests/unit/  (the part kept at zero)
-#   --all       the default plus services/ clients/mavctl/ tests/contract/ tests/integration/
+#   --all       the default plus services/ clients/ (mavctl, mav-load, common, plot) tests/contract/
+#               tests/integration/ tests/load/
 #   PATH...     only these sources, or those under these directories (relative to the root)
 #   --since REV of the scope, only the sources changed since commit REV (git diff REV, committed
 #               and not) and those that include a header changed since then. CI runs this with
@@ -34,9 +35,10 @@ while [[ $# -gt 0 ]]; do
   case "$1" in
     --build-dir) build_dir="$(cd "$2" && pwd)"; shift 2 ;;
     --jobs|-j) jobs="$2"; shift 2 ;;
-    --all) scope+=(services clients/mavctl tests/contract tests/integration); shift ;;
+    --all) scope+=(services clients/mavctl clients/mav-load clients/common clients/plot tests/contract
+                   tests/integration tests/load); shift ;;
     --since) since="$2"; shift 2 ;;
-    -h|--help) sed -n '2,23p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
     -*) echo "run-clang-tidy.sh: unknown flag '$1' (try --help)" >&2; exit 2 ;;
     *) explicit+=("${1%/}"); shift ;;
   esac

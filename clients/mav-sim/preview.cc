@@ -11,7 +11,6 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "commands.h"
@@ -19,6 +18,7 @@
 #include "mav/common/flags.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/png.h"
 #include "mav/dataset/stereo_pair.h"
 #include "mav/sim/occupancy.h"
 
@@ -181,13 +181,9 @@ cv::Mat DrawSlice(const dataset::EurocReader& reader, int64_t frame,
 }
 
 int WritePicture(const std::string& out, const cv::Mat& picture) {
-  try {
-    if (!cv::imwrite(out, picture)) {
-      PrintError(kCommand, "--out: cannot write '" + out + "'");
-      return kExitFailure;
-    }
-  } catch (const cv::Exception& e) {
-    PrintError(kCommand, "--out: cannot write '" + out + "': " + e.what());
+  const Status written = dataset::WritePngFile(out, picture);
+  if (!written.ok()) {
+    PrintError(kCommand, "--out: cannot write '" + out + "': " + written.message());
     return kExitFailure;
   }
   std::printf("wrote %s (%dx%d)\n", out.c_str(), picture.cols, picture.rows);

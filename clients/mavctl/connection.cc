@@ -17,9 +17,50 @@
 namespace mav::mavctl {
 
 void AddConnectionFlags(FlagParser* flags, Connection* connection) {
-  flags->AddString("address", &connection->address, "server address");
+  flags->AddString("address", &connection->address,
+                   "server host, or a target naming several backends (ipv4:H:P,H:P | H:P,H:P | "
+                   "dns:///HOST:PORT: round_robin, no --port)");
   flags->AddInt("port", &connection->port, "server port (env " + connection->port_env + ")");
   flags->AddDouble("timeout", &connection->timeout_s, "deadline of each RPC, s");
+}
+
+namespace {
+
+[[noreturn]] void UsageExit(const std::string& message) {
+  std::cerr << "mavctl: " << message << "\n";
+  std::exit(2);
+}
+
+// A whole target in --address: one client::ParseTarget takes, and no --port.
+void CheckTargetOrExit(const FlagParser& flags, const Connection& connection) {
+  if (Result<client::ChannelTarget> t = client::ParseTarget(connection.address); !t.ok()) {
+    UsageExit("--address: " + t.status().message());
+  }
+  if (flags.WasSet("port")) {
+    UsageExit("--port: not with --address " + connection.address +
+              " (a target names its own ports)");
+  }
+}
+
+// A host in --address: the port from --port, else the port variable, else the default.
+void ResolvePortOrExit(const FlagParser& flags, Connection* connection) {
+  if (!flags.WasSet("port")) {
+    auto port = transport::PortFromEnv(connection->port_env, connection->port);
+    if (!port.ok()) UsageExit(port.status().message());
+    connection->port = *port;
+  }
+  if (connection->port <= 0 || connection->port > 65535) {
+    UsageExit("--port: " + std::to_string(connection->port) + " is outside [1, 65535]");
+  }
+}
+
+}  // namespace
+
+std::shared_ptr<grpc::Channel> MakeChannel(const Connection& connection) {
+  Result<client::ChannelTarget> target = client::ParseTarget(connection.Target());
+  // ParseOrExit refused a bad target; a host without one is given to gRPC as it is.
+  return client::MakeChannel(target.ok() ? *target : client::ChannelTarget{connection.Target()},
+                             client::StackServices());
 }
 
 std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
@@ -31,26 +72,15 @@ std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
     std::cout << flags->Usage();
     std::exit(0);
   }
-  if (!status.ok()) {
-    std::cerr << "mavctl: " << status.message() << "\n";
-    std::exit(2);
-  }
+  if (!status.ok()) UsageExit(status.message());
   if (connection == nullptr) return positional;
-  if (!flags->WasSet("port")) {
-    auto port = transport::PortFromEnv(connection->port_env, connection->port);
-    if (!port.ok()) {
-      std::cerr << "mavctl: " << port.status().message() << "\n";
-      std::exit(2);
-    }
-    connection->port = *port;
-  }
-  if (connection->port <= 0 || connection->port > 65535) {
-    std::cerr << "mavctl: --port: " << connection->port << " is outside [1, 65535]\n";
-    std::exit(2);
+  if (client::IsTargetUri(connection->address)) {
+    CheckTargetOrExit(*flags, *connection);
+  } else {
+    ResolvePortOrExit(*flags, connection);
   }
   if (!(connection->timeout_s > 0.0) || !std::isfinite(connection->timeout_s)) {
-    std::cerr << "mavctl: --timeout: must be > 0 s\n";
-    std::exit(2);
+    UsageExit("--timeout: must be > 0 s");
   }
   return positional;
 }

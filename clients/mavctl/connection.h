@@ -1,6 +1,9 @@
 #pragma once
 // The connection flags every mavctl subcommand shares: --address, --port (with the service's
-// port environment variable as the fallback) and --timeout (each RPC's deadline).
+// port environment variable as the fallback) and --timeout (each RPC's deadline). --address is a
+// host (then --port gives the port) or a whole gRPC target naming several backends
+// (clients/common/channel.h: "ipv4:H:P,H:P", "H:P,H:P" of IP literals, "dns:///host:port"),
+// whose calls are balanced round_robin with retries of UNAVAILABLE calls; --port is then refused.
 
 #include <cstdint>
 #include <functional>
@@ -9,12 +12,14 @@
 #include <utility>
 #include <vector>
 
+#include <grpcpp/channel.h>
 #include <grpcpp/client_context.h>
 #include <grpcpp/support/status.h>
 #include <grpcpp/support/sync_stream.h>
 
 #include "mav/v1/common.pb.h"
 
+#include "clients/common/channel.h"
 #include "mav/common/flags.h"
 #include "mav/common/status.h"
 
@@ -29,18 +34,25 @@ struct Connection {
   double timeout_s = 10.0;
   std::string port_env;  // consulted when --port is not given, e.g. MAV_SIMULATOR_PORT
 
-  std::string Target() const { return address + ":" + std::to_string(port); }
+  // "address:port", or the address itself when it is a whole target.
+  std::string Target() const {
+    return client::IsTargetUri(address) ? address : address + ":" + std::to_string(port);
+  }
 };
 
 void AddConnectionFlags(FlagParser* flags, Connection* connection);
 
 // Parses a subcommand's flags: --help prints the usage and exits 0; a usage error (bad flag,
-// port outside [1, 65535], non-positive timeout, malformed port variable) prints "mavctl: ..."
-// and exits 2. `connection` may be null for subcommands without a server. Returns the positional
-// arguments when `allow_positional`, otherwise they are an error.
+// port outside [1, 65535], non-positive timeout, malformed port variable, a target list
+// client::ParseTarget refuses, --port with a target) prints "mavctl: ..." and exits 2. `connection`
+// may be null for subcommands without a server. Returns the positional arguments when
+// `allow_positional`, otherwise they are an error.
 std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,
                                      const std::vector<std::string>& args,
                                      bool allow_positional = false);
+
+// The channel to Target() (client::MakeChannel: balanced for a target naming several backends).
+std::shared_ptr<grpc::Channel> MakeChannel(const Connection& connection);
 
 // "a,b,c,..." with exactly `n` finite numbers (a flag's value); InvalidArgument naming the flag.
 Result<std::vector<double>> ParseNumbers(const std::string& text, size_t n,

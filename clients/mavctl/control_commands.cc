@@ -10,9 +10,6 @@
 #include <sstream>
 #include <thread>
 
-#include <grpcpp/create_channel.h>
-#include <grpcpp/security/credentials.h>
-
 #include "mav/v1/control.grpc.pb.h"
 #include "mav/v1/simulator.grpc.pb.h"
 
@@ -68,7 +65,7 @@ int Usage(const std::string& message) {
 }
 
 std::shared_ptr<grpc::Channel> Channel(const mavctl::Connection& connection) {
-  return grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials());
+  return mavctl::MakeChannel(connection);
 }
 
 void SetVector(const std::vector<double>& v, v1::Vector3* out) {

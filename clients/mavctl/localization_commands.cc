@@ -8,9 +8,6 @@
 #include <iostream>
 #include <memory>
 
-#include <grpcpp/create_channel.h>
-#include <grpcpp/security/credentials.h>
-
 #include "mav/v1/localization.grpc.pb.h"
 
 #include "mav/common/time.h"
@@ -46,8 +43,7 @@ struct Connection : mavctl::Connection {
 };
 
 std::unique_ptr<v1::Localization::Stub> Connect(const Connection& connection) {
-  return v1::Localization::NewStub(
-      grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials()));
+  return v1::Localization::NewStub(MakeChannel(connection));
 }
 
 const char* MethodText(v1::LocalizationMethod method) {

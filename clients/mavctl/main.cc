@@ -25,9 +25,6 @@
 #include <string>
 #include <vector>
 
-#include <grpcpp/create_channel.h>
-#include <grpcpp/security/credentials.h>
-
 #include "mav/v1/simulator.grpc.pb.h"
 
 #include "clients/mavctl/connection.h"
@@ -85,7 +82,7 @@ using mav::mavctl::ReportRpcError;
 using mav::mavctl::SetDeadline;
 
 std::shared_ptr<grpc::Channel> Connect(const Connection& connection) {
-  return grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials());
+  return mav::mavctl::MakeChannel(connection);
 }
 
 const char* StateName(mav::v1::SimulatorState state) {

@@ -9,9 +9,7 @@
 #include <iostream>
 #include <memory>
 
-#include <grpcpp/create_channel.h>
-#include <grpcpp/security/credentials.h>
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/core/mat.hpp>
 
 #include "mav/v1/mapping.grpc.pb.h"
 
@@ -19,6 +17,7 @@
 #include "mav/common/parse.h"
 #include "mav/common/text.h"
 #include "mav/common/time.h"
+#include "mav/dataset/png.h"
 #include "mav/transport/flags.h"
 #include "mav/transport/grpc_server.h"
 
@@ -61,8 +60,7 @@ int Usage(const std::string& message) {
 }
 
 std::unique_ptr<v1::Mapping::Stub> Connect(const Connection& connection) {
-  return v1::Mapping::NewStub(
-      grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials()));
+  return v1::Mapping::NewStub(MakeChannel(connection));
 }
 
 // Box from "x0,y0,z0,x1,y1,z1" (the server validates min <= max).
@@ -234,11 +232,13 @@ int Insert(const std::vector<std::string>& args) {
        {std::pair<std::string, v1::Image*>{left_path, request.mutable_stereo()->mutable_left()},
         std::pair<std::string, v1::Image*>{right_path,
                                            request.mutable_stereo()->mutable_right()}}) {
-    const cv::Mat mat = cv::imread(path, cv::IMREAD_GRAYSCALE);
-    if (mat.empty()) {
-      std::cerr << "mavctl: cannot read the image " << path << "\n";
+    const Result<cv::Mat> read = dataset::ReadPngFile(path, dataset::PngDecode::kToGrey);
+    if (!read.ok()) {
+      std::cerr << "mavctl: cannot read the image (must be a PNG): " << read.status().message()
+                << "\n";
       return 1;
     }
+    const cv::Mat& mat = *read;
     image->set_width(static_cast<uint32_t>(mat.cols));
     image->set_height(static_cast<uint32_t>(mat.rows));
     image->set_encoding(v1::IMAGE_ENCODING_MONO8);

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <iostream>
 
+#include "clients/common/channel.h"
 #include "clients/mavctl/connection.h"
 #include "clients/mavctl/mission_driver.h"
 #include "clients/plot/mission_flags.h"
@@ -33,10 +34,16 @@ int Fail(const std::string& message) {
   return 1;
 }
 
-// host:port of a service: the flag, else 127.0.0.1 and the port variable, else the default port.
-Result<std::string> Address(const std::string& flag, const std::string& port_env,
-                            int64_t default_port) {
-  if (!flag.empty()) return flag;
+// host:port of a service (or a target naming several backends, clients/common/channel.h): the
+// flag, else 127.0.0.1 and the port variable, else the default port.
+Result<std::string> Address(const std::string& name, const std::string& flag,
+                            const std::string& port_env, int64_t default_port) {
+  if (!flag.empty()) {
+    if (Result<client::ChannelTarget> t = client::ParseTarget(flag); !t.ok()) {
+      return Status::InvalidArgument("--" + name + ": " + t.status().message());
+    }
+    return flag;
+  }
   MAV_ASSIGN_OR_RETURN(const int64_t port, transport::PortFromEnv(port_env, default_port));
   return "127.0.0.1:" + std::to_string(port);
 }
@@ -98,13 +105,15 @@ int Run(const std::vector<std::string>& args) {
   Result<ServiceMissionOptions> options = OptionsFrom(flags_in);
   if (!options.ok()) return Usage("run: " + options.status().message());
   ServiceAddresses addresses;
-  for (auto [flag, env, port, target] :
-       {std::tuple{&flags_in.simulator, "MAV_SIMULATOR_PORT", 50051, &addresses.simulator},
-        std::tuple{&flags_in.localization, "MAV_LOCALIZATION_PORT", 50052, &addresses.localization},
-        std::tuple{&flags_in.mapping, "MAV_MAPPING_PORT", 50053, &addresses.mapping},
-        std::tuple{&flags_in.planning, "MAV_PLANNING_PORT", 50054, &addresses.planning},
-        std::tuple{&flags_in.control, "MAV_CONTROL_PORT", 50055, &addresses.control}}) {
-    Result<std::string> address = Address(*flag, env, port);
+  for (auto [name, flag, env, port, target] :
+       {std::tuple{"simulator", &flags_in.simulator, "MAV_SIMULATOR_PORT", 50051,
+                   &addresses.simulator},
+        std::tuple{"localization", &flags_in.localization, "MAV_LOCALIZATION_PORT", 50052,
+                   &addresses.localization},
+        std::tuple{"mapping", &flags_in.mapping, "MAV_MAPPING_PORT", 50053, &addresses.mapping},
+        std::tuple{"planning", &flags_in.planning, "MAV_PLANNING_PORT", 50054, &addresses.planning},
+        std::tuple{"control", &flags_in.control, "MAV_CONTROL_PORT", 50055, &addresses.control}}) {
+    Result<std::string> address = Address(name, *flag, env, port);
     if (!address.ok()) return Usage(address.status().message());
     *target = *address;
   }

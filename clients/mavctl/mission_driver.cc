@@ -6,15 +6,13 @@
 #include <sstream>
 #include <thread>
 
-#include <grpcpp/create_channel.h>
-#include <grpcpp/security/credentials.h>
-
 #include "mav/v1/control.grpc.pb.h"
 #include "mav/v1/localization.grpc.pb.h"
 #include "mav/v1/mapping.grpc.pb.h"
 #include "mav/v1/planning.grpc.pb.h"
 #include "mav/v1/simulator.grpc.pb.h"
 
+#include "clients/common/channel.h"
 #include "mav/camera/rectifier.h"
 #include "mav/common/time.h"
 #include "mav/dataset/occupancy_io.h"
@@ -485,8 +483,11 @@ Result<std::unique_ptr<ServiceDriver>> ServiceDriver::Create(
   s.options = options;
   s.addresses = addresses;
   s.progress = progress;
+  // mavctl mission run checked the addresses (client::ParseTarget); another is given as it is.
   auto channel = [](const std::string& address) {
-    return grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
+    Result<client::ChannelTarget> target = client::ParseTarget(address);
+    return client::MakeChannel(target.ok() ? *target : client::ChannelTarget{address},
+                               client::StackServices());
   };
   s.simulator = v1::Simulator::NewStub(channel(addresses.simulator));
   s.control = v1::Control::NewStub(channel(addresses.control));

@@ -7,9 +7,6 @@
 #include <memory>
 #include <sstream>
 
-#include <grpcpp/create_channel.h>
-#include <grpcpp/security/credentials.h>
-
 #include "mav/v1/planning.grpc.pb.h"
 
 #include "clients/mavctl/connection.h"
@@ -54,8 +51,7 @@ int Usage(const std::string& message) {
 }
 
 std::unique_ptr<v1::Planning::Stub> Connect(const Connection& connection) {
-  return v1::Planning::NewStub(
-      grpc::CreateChannel(connection.Target(), grpc::InsecureChannelCredentials()));
+  return v1::Planning::NewStub(MakeChannel(connection));
 }
 
 std::string Fixed(double v, int digits) {

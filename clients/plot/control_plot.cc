@@ -3,8 +3,9 @@
 #include <algorithm>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "mav/dataset/png.h"
 
 namespace mav::plot {
 
@@ -82,8 +83,7 @@ Status WriteControlErrorPlot(const std::string& path, const dataset::FlightTask&
                   "scoring windows; lines: 0.1 m ball, 0.02 m full band)",
               cv::Point(left, 25), cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1,
               cv::LINE_AA);
-  if (!cv::imwrite(path, img)) return Status::IoError(path + ": cannot write PNG");
-  return Status::Ok();
+  return dataset::WritePngFile(path, img);
 }
 
 }  // namespace mav::plot

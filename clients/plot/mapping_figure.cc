@@ -7,8 +7,9 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "mav/dataset/png.h"
 
 namespace mav::plot {
 namespace {
@@ -172,8 +173,7 @@ Status WriteMappingFigure(const std::string& path, const std::string& title,
   }
   cv::putText(canvas, title, cv::Point(12, h - 12), cv::FONT_HERSHEY_SIMPLEX, 0.5,
               cv::Scalar(60, 60, 60), 1, cv::LINE_AA);
-  if (!cv::imwrite(path, canvas)) return Status::IoError(path + ": cannot write PNG");
-  return Status::Ok();
+  return dataset::WritePngFile(path, canvas);
 }
 
 }  // namespace mav::plot

@@ -3,8 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "mav/dataset/png.h"
 
 namespace mav::plot {
 namespace {
@@ -146,8 +147,7 @@ Status WriteTopViewPlot(const std::string& path, const std::string& title,
                 cv::Point(margin, 50), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 200), 1,
                 cv::LINE_AA);
   }
-  if (!cv::imwrite(path, canvas)) return Status::IoError(path + ": cannot write PNG");
-  return Status::Ok();
+  return dataset::WritePngFile(path, canvas);
 }
 
 }  // namespace mav::plot

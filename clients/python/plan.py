@@ -9,13 +9,70 @@ into build/python/ (clients/python/CMakeLists.txt); --stubs or MAV_PYTHON_STUBS 
     clients/python/plan.py --address 127.0.0.1:50054 --start 2 -27 15 --goal 20 -15 15
     clients/python/plan.py --start 2 -27 15 --via 20 -15 15 --goal 25 0 5 --samples 0.5
 
+--address is HOST:PORT, or a gRPC target naming several mav-planning replicas, whose calls are
+then balanced round_robin with up to 3 attempts of a call that found its replica gone
+(UNAVAILABLE), as mavctl and mav-load do (clients/common/channel.h):
+
+    clients/python/plan.py --address ipv4:127.0.0.1:50054,127.0.0.1:50064 --start ... --goal ...
+    clients/python/plan.py --address 127.0.0.1:50054,127.0.0.1:50064 ...   (IP literals: ipv4:)
+    clients/python/plan.py --address dns:///planning.local:50054 ...        (every resolved address)
+
 Exit status: 0 when the plan is SUCCESS, 1 when it is not or the call fails (the gRPC code and
 message are printed), 2 for bad usage.
 """
 
 import argparse
+import ipaddress
+import json
 import os
 import sys
+
+SCHEMES = ("ipv4:", "ipv6:", "dns:", "unix:", "unix-abstract:")
+
+
+def is_ip_port(item, version):
+    """True for "a.b.c.d:port" (version 4) or "[v6]:port" (version 6)."""
+    host, _, port = item.rpartition(":")
+    if not port.isdigit() or len(port) > 5:
+        return False
+    if version == 6:
+        if not (host.startswith("[") and host.endswith("]")):
+            return False
+        host = host[1:-1]
+    try:
+        return ipaddress.ip_address(host).version == version
+    except ValueError:
+        return False
+
+
+def channel_target(address):
+    """(target, balanced) for --address; raises ValueError for a list it cannot name.
+
+    HOST:PORT is one server (gRPC's defaults); a scheme or a comma names several backends."""
+    if address.startswith(SCHEMES):
+        return address, True
+    if "," not in address:
+        return address, False
+    items = address.split(",")
+    for version, scheme in ((4, "ipv4:"), (6, "ipv6:")):
+        if all(is_ip_port(item, version) for item in items):
+            return scheme + address, True
+    raise ValueError(f"'{address}': a list without a scheme takes IP literals of one kind "
+                     "(a.b.c.d:port or [v6]:port); name hosts with dns:///host:port")
+
+
+def balanced_options(service):
+    """Channel options of a balanced target: round_robin, retries of UNAVAILABLE calls."""
+    config = {
+        "loadBalancingConfig": [{"round_robin": {}}],
+        "methodConfig": [{
+            "name": [{"service": service}],
+            "retryPolicy": {"maxAttempts": 3, "initialBackoff": "0.01s", "maxBackoff": "0.1s",
+                            "backoffMultiplier": 2, "retryableStatusCodes": ["UNAVAILABLE"]},
+        }],
+    }
+    return [("grpc.lb_policy_name", "round_robin"), ("grpc.enable_retries", 1),
+            ("grpc.service_config", json.dumps(config))]
 
 
 def import_stubs(stubs_dir):
@@ -37,7 +94,9 @@ def vector(common, xyz):
 def main():
     here = os.path.dirname(os.path.abspath(__file__))
     parser = argparse.ArgumentParser(description="Plans a path with mav-planning (PlanPath).")
-    parser.add_argument("--address", default="127.0.0.1:50054", help="host:port of mav-planning")
+    parser.add_argument("--address", default="127.0.0.1:50054",
+                        help="host:port of mav-planning, or a target naming several replicas "
+                        "(ipv4:H:P,H:P | H:P,H:P | dns:///host:port): round_robin")
     parser.add_argument("--start", nargs=3, type=float, required=True, metavar=("X", "Y", "Z"))
     parser.add_argument("--goal", nargs=3, type=float, required=True, metavar=("X", "Y", "Z"))
     parser.add_argument("--via", nargs=3, type=float, action="append", default=[],
@@ -50,6 +109,10 @@ def main():
         "MAV_PYTHON_STUBS", os.path.join(here, "..", "..", "build", "python")),
         help="directory of the generated stubs (default: build/python)")
     args = parser.parse_args()
+    try:
+        target, balanced = channel_target(args.address)
+    except ValueError as error:
+        parser.error(f"--address: {error}")
 
     import grpc
     common, pb, pb_grpc = import_stubs(os.path.abspath(args.stubs))
@@ -58,7 +121,8 @@ def main():
                                  waypoints=[vector(common, w) for w in args.via],
                                  limits=pb.SpeedLimits(max_speed_mps=args.max_speed),
                                  sample_dt_s=args.samples)
-    with grpc.insecure_channel(args.address) as channel:
+    options = balanced_options("mav.v1.Planning") if balanced else None
+    with grpc.insecure_channel(target, options=options) as channel:
         stub = pb_grpc.PlanningStub(channel)
         try:
             reply = stub.PlanPath(request, timeout=args.timeout)

@@ -5,11 +5,19 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
+#include <map>
+#include <mutex>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
+
+#include <grpcpp/grpcpp.h>
+
+#include "mav/v1/control.grpc.pb.h"
 
 #include "mav/transport/dds.h"
 #include "mav/transport/flags.h"
@@ -108,6 +116,59 @@ TEST(GrpcServerTest, ABusyPortIsUnavailableNamingTheAddress) {
   EXPECT_NE(second.status().message().find("127.0.0.1:" + std::to_string(options.port)),
             std::string::npos)
       << second.status().message();
+}
+
+// A service whose GetState takes 300 ms, to hold gRPC's threads.
+class SlowControl : public mav::v1::Control::Service {
+ public:
+  grpc::Status GetState(grpc::ServerContext*, const mav::v1::ControlGetStateRequest*,
+                        mav::v1::ControlState*) override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    return grpc::Status::OK;
+  }
+};
+
+// 12 slow calls at once against a server of `max_threads`: the codes they end with.
+std::map<grpc::StatusCode, int> TwelveSlowCalls(int64_t max_threads) {
+  SlowControl service;
+  ServerOptions options;
+  options.max_threads = max_threads;
+  auto server = GrpcServer::Start(options, {&service});
+  EXPECT_TRUE(server.ok()) << server.status().ToString();
+  if (!server.ok()) return {};
+  auto stub = mav::v1::Control::NewStub(
+      grpc::CreateChannel((*server)->target(), grpc::InsecureChannelCredentials()));
+  std::mutex mutex;
+  std::map<grpc::StatusCode, int> codes;
+  std::vector<std::thread> calls;
+  calls.reserve(12);
+  for (int i = 0; i < 12; ++i) {
+    calls.emplace_back([&] {
+      grpc::ClientContext context;
+      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+      mav::v1::ControlState state;
+      const grpc::Status status = stub->GetState(&context, {}, &state);
+      std::lock_guard<std::mutex> lock(mutex);
+      ++codes[status.error_code()];
+    });
+  }
+  for (std::thread& t : calls) t.join();
+  return codes;
+}
+
+TEST(GrpcServerTest, MaxThreadsRefusesTheCallsThatFindNoThread) {
+  std::map<grpc::StatusCode, int> bounded = TwelveSlowCalls(4);
+  EXPECT_GT(bounded[grpc::StatusCode::OK], 0);
+  EXPECT_GT(bounded[grpc::StatusCode::RESOURCE_EXHAUSTED], 0);
+  EXPECT_EQ(bounded[grpc::StatusCode::OK] + bounded[grpc::StatusCode::RESOURCE_EXHAUSTED], 12);
+  std::map<grpc::StatusCode, int> unbounded = TwelveSlowCalls(0);
+  EXPECT_EQ(unbounded[grpc::StatusCode::OK], 12);
+
+  ServerOptions bad;
+  bad.max_threads = 2;
+  std::string why;
+  EXPECT_FALSE(bad.IsValid(&why));
+  EXPECT_EQ(why.rfind("max_threads: 2 is outside [4, 10000]", 0), 0u) << why;
 }
 
 TEST(DdsOptionsTest, ConfigResolutionAndDomainValidation) {

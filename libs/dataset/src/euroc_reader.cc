@@ -4,13 +4,13 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "euroc_format.h"
 #include "mav/common/file.h"
 #include "mav/common/parse.h"
 #include "mav/common/text.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/png.h"
 #include "mav/dataset/stereo_pair.h"
 #include "text.h"
 
@@ -117,23 +117,9 @@ bool IsIdentity(const geometry::SE3& T) {
 }
 
 Status ReadImage(const std::string& path, const camera::PinholeRadTan& cam, cv::Mat* image) {
-  // Read the bytes ourselves so that a missing file (NotFound) and an undecodable one (DataLoss)
-  // are told apart; cv::imread returns an empty Mat for both.
-  MAV_ASSIGN_OR_RETURN(const std::string bytes, ReadFileToString(path));
-  cv::Mat decoded;
-  try {
-    const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
-    if (!bytes.empty()) decoded = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    return Status::DataLoss(path + ": cannot decode image: " + e.what());
-  }
-  if (decoded.empty())
-    return Status::DataLoss(path + ": cannot decode image (corrupt or truncated)");
-  if (decoded.type() != CV_8UC1) {
-    return Status::InvalidArgument(path + ": expected an 8-bit grey image, got " +
-                                   std::to_string(decoded.channels()) + " channel(s) of depth " +
-                                   std::to_string(decoded.depth()));
-  }
+  // NotFound for a missing file, DataLoss for an undecodable one, InvalidArgument for one that
+  // is not 8-bit grey; every message starts with the path.
+  MAV_ASSIGN_OR_RETURN(cv::Mat decoded, ReadPngFile(path, PngDecode::kGreyOnly));
   if (decoded.cols != cam.width || decoded.rows != cam.height) {
     return Status::InvalidArgument(path + ": image is " + std::to_string(decoded.cols) + "x" +
                                    std::to_string(decoded.rows) + ", expected " +

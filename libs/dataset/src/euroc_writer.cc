@@ -3,11 +3,11 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "euroc_format.h"
 #include "mav/common/file.h"
 #include "mav/dataset/euroc.h"
+#include "mav/dataset/png.h"
 #include "text.h"
 
 namespace mav::dataset {
@@ -28,16 +28,10 @@ Status CheckImage(const cv::Mat& image, const char* name, const camera::PinholeR
   return Status::Ok();
 }
 
-Result<std::string> EncodePng(const cv::Mat& image, const char* name) {
-  std::vector<uchar> buffer;
-  try {
-    if (!cv::imencode(".png", image, buffer)) {
-      return Status::Internal(std::string(name) + ": PNG encoding failed");
-    }
-  } catch (const cv::Exception& e) {
-    return Status::Internal(std::string(name) + ": PNG encoding failed: " + e.what());
-  }
-  return std::string(buffer.begin(), buffer.end());
+Result<std::string> EncodeImage(const cv::Mat& image, const char* name) {
+  Result<std::string> png = EncodePng(image);
+  if (!png.ok()) return png.status().WithContext(name);
+  return png;
 }
 
 }  // namespace
@@ -83,8 +77,8 @@ Status EurocWriter::WriteStereo(int64_t t_ns, const cv::Mat& left, const cv::Mat
   if (t_ns < 0) return Status::InvalidArgument("t_ns: must be >= 0, got " + std::to_string(t_ns));
   MAV_RETURN_IF_ERROR(CheckImage(left, "left", calibration_.cam0));
   MAV_RETURN_IF_ERROR(CheckImage(right, "right", calibration_.cam1));
-  MAV_ASSIGN_OR_RETURN(const std::string left_png, EncodePng(left, "left"));
-  MAV_ASSIGN_OR_RETURN(const std::string right_png, EncodePng(right, "right"));
+  MAV_ASSIGN_OR_RETURN(const std::string left_png, EncodeImage(left, "left"));
+  MAV_ASSIGN_OR_RETURN(const std::string right_png, EncodeImage(right, "right"));
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (std::find(frame_times_.begin(), frame_times_.end(), t_ns) != frame_times_.end()) {

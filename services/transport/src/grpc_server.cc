@@ -7,6 +7,7 @@
 #include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/resource_quota.h>
 #include <grpcpp/security/credentials.h>
 #include <grpcpp/security/server_credentials.h>
 #include <grpcpp/server_builder.h>
@@ -30,6 +31,14 @@ bool ServerOptions::IsValid(std::string* why) const {
     if (why != nullptr) *why = "shutdown_grace_ms: must be >= 0";
     return false;
   }
+  // gRPC's sync server keeps up to 2 polling threads besides the ones running calls.
+  if (max_threads != 0 && (max_threads < 4 || max_threads > 10000)) {
+    if (why != nullptr) {
+      *why =
+          "max_threads: " + std::to_string(max_threads) + " is outside [4, 10000] (0 = no bound)";
+    }
+    return false;
+  }
   return true;
 }
 
@@ -42,6 +51,9 @@ void AddServerFlags(FlagParser* flags, ServerOptions* options, const std::string
   flags->AddString("address", &options->address,
                    "IP address to bind the gRPC server to (0.0.0.0 exposes it)");
   flags->AddInt("port", &options->port, "TCP port of the gRPC server (env " + port_env + ")");
+  flags->AddInt("max-threads", &options->max_threads,
+                "threads gRPC runs calls on; a call finding all busy gets RESOURCE_EXHAUSTED "
+                "(0 = no bound)");
 }
 
 Status ApplyPortEnv(const FlagParser& flags, const std::string& port_env, ServerOptions* options) {
@@ -67,6 +79,11 @@ Result<std::unique_ptr<GrpcServer>> GrpcServer::Start(
   // the first (and steal half of its connections). A busy port must be an error.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.AddListeningPort(options.Target(), grpc::InsecureServerCredentials(), &self->port_);
+  if (options.max_threads > 0) {
+    grpc::ResourceQuota quota("mav-server");
+    quota.SetMaxThreads(static_cast<int>(options.max_threads));
+    builder.SetResourceQuota(quota);
+  }
   for (grpc::Service* service : services) {
     MAV_CHECK(service != nullptr);
     builder.RegisterService(service);

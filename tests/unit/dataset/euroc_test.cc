@@ -9,9 +9,9 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "mav/camera/stereo.h"
+#include "mav/dataset/png.h"
 #include "mav/dataset/stereo_pair.h"
 #include "test_util.h"
 #include "tests/common/build_paths.h"
@@ -287,7 +287,7 @@ class EurocFixture : public ::testing::Test {
         const std::string t = csv.substr(pos + 1, 19);
         const cv::Mat image =
             MakeImage(752, 480, static_cast<uint32_t>(std::stoll(t) % 1000) + cam);
-        ASSERT_TRUE(cv::imwrite(folder + "/data/" + t + ".png", image));
+        ASSERT_TRUE(WritePngFile(folder + "/data/" + t + ".png", image).ok());
         ++pos;
       }
     }
@@ -468,12 +468,12 @@ TEST_F(EurocFixture, WrongImageSize) {
   auto reader = EurocReader::Open(root_);
   ASSERT_TRUE(reader.ok());
   const std::string path = reader->LeftImagePath(1);
-  ASSERT_TRUE(cv::imwrite(path, MakeImage(320, 240, 9)));
+  ASSERT_TRUE(WritePngFile(path, MakeImage(320, 240, 9)).ok());
   Status s = reader->ReadStereo(1).status();
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find(path), std::string::npos) << s.message();
   EXPECT_NE(s.message().find("expected 752x480"), std::string::npos) << s.message();
-  ASSERT_TRUE(cv::imwrite(path, cv::Mat(480, 752, CV_8UC3, cv::Scalar(0, 0, 0))));
+  ASSERT_TRUE(WritePngFile(path, cv::Mat(480, 752, CV_8UC3, cv::Scalar(0, 0, 0))).ok());
   s = reader->ReadStereo(1).status();
   EXPECT_EQ(s.code(), StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("grey"), std::string::npos) << s.message();

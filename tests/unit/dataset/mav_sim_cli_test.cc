@@ -7,10 +7,10 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "mav/dataset/euroc.h"
 #include "mav/dataset/occupancy_io.h"
+#include "mav/dataset/png.h"
 #include "mav/dataset/stereo_pair.h"
 #include "mav/sim/occupancy.h"
 #include "mav/sim/scenario.h"
@@ -100,9 +100,10 @@ TEST(MavSimCli, GenerateThenReadReproducesRenderingExactly) {
   const RunResult preview =
       RunMavSim("preview " + out + " --frame 4 --out " + dir.path() + "/p.png");
   ASSERT_EQ(preview.exit_code, 0) << preview.output;
-  const cv::Mat picture = cv::imread(dir.path() + "/p.png");
-  EXPECT_EQ(picture.cols, 2 * 752);
-  EXPECT_GT(picture.rows, 480);
+  const Result<cv::Mat> picture = ReadPngFile(dir.path() + "/p.png", PngDecode::kToGrey);
+  ASSERT_TRUE(picture.ok()) << picture.status().ToString();
+  EXPECT_EQ(picture->cols, 2 * 752);
+  EXPECT_GT(picture->rows, 480);
 
   // A second run into the same directory is refused without --force.
   const RunResult again = RunMavSim("generate --preset room-easy --frames 2 --out " + out);

@@ -14,7 +14,9 @@
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
+#include <opencv2/core.hpp>
+
+#include "mav/dataset/png.h"
 
 namespace mav::plot {
 namespace {
@@ -57,9 +59,10 @@ TEST_F(PlotTest, HugeOrNonFinitePositionsFinishQuickly) {
     // the defect it drew ~1e8 grid lines.
     const Status s = WriteTopViewPlot(path, "test", Series(p));
     ASSERT_TRUE(s.ok()) << p.transpose() << ": " << s.ToString();
-    const cv::Mat image = cv::imread(path);
-    EXPECT_EQ(image.cols, 900) << p.transpose();
-    EXPECT_EQ(image.rows, 900) << p.transpose();
+    const Result<cv::Mat> image = dataset::ReadPngFile(path, dataset::PngDecode::kToBgr);
+    ASSERT_TRUE(image.ok()) << image.status().ToString();
+    EXPECT_EQ(image->cols, 900) << p.transpose();
+    EXPECT_EQ(image->rows, 900) << p.transpose();
   }
 }
 
@@ -75,7 +78,9 @@ TEST_F(PlotTest, NothingDrawableIsAnError) {
 TEST_F(PlotTest, NormalPlotIsUnchangedInShape) {
   const Status s = WriteTopViewPlot(dir_ + "/plot.png", "room", Series({1, 0, 1}));
   ASSERT_TRUE(s.ok()) << s.ToString();
-  const cv::Mat image = cv::imread(dir_ + "/plot.png");
+  const Result<cv::Mat> read = dataset::ReadPngFile(dir_ + "/plot.png", dataset::PngDecode::kToBgr);
+  ASSERT_TRUE(read.ok()) << read.status().ToString();
+  const cv::Mat& image = *read;
   ASSERT_EQ(image.cols, 900);
   // Something other than the white background and the grey grid was drawn (the trajectories).
   int coloured = 0;

@@ -34,6 +34,11 @@ struct ServerOptions {
   int64_t port = 0;
   // How long Shutdown() lets in-flight RPCs finish before cancelling them.
   int64_t shutdown_grace_ms = 5000;
+  // Threads gRPC may run the server's calls on (its pollers included; grpc::ResourceQuota). A
+  // call that finds every thread busy is answered RESOURCE_EXHAUSTED at once instead of waiting
+  // for one, which bounds both the threads (memory) and the queueing under overload.
+  // 0 = gRPC's default (no bound).
+  int64_t max_threads = 0;
 
   bool IsValid(std::string* why) const;
   // "127.0.0.1:50051" (IPv6 addresses are bracketed).

@@ -12,6 +12,7 @@ checked here; every verdict is printed, met or not.
 """
 import json
 import os
+import re
 import sys
 
 # service: (call, calls/s at least, p99 at most in ms, memory cap in MiB from docker-compose.yml)
@@ -26,16 +27,23 @@ OVERLOAD = 32
 SHED_CODES = {"RESOURCE_EXHAUSTED", "DEADLINE_EXCEEDED"}
 
 
+RUN_NAME = re.compile(r"^(container|bare)-([a-z]+)-c([0-9]+)(-backoff)?\.json$")
+
+
 def load(directory):
-    runs = {}
+    """{(mode, service, clients): run} and {(mode, service): the overload run with backoff}."""
+    runs, backoff = {}, {}
     for name in os.listdir(directory):
-        if not name.endswith(".json") or "-c" not in name:
+        m = RUN_NAME.match(name)
+        if not m:
             continue
-        mode, rest = name[:-5].split("-", 1)
-        service, c = rest.rsplit("-c", 1)
         with open(os.path.join(directory, name)) as f:
-            runs[(mode, service, int(c))] = json.load(f)
-    return runs
+            run = json.load(f)
+        if m.group(4):
+            backoff[(m.group(1), m.group(2))] = run
+        else:
+            runs[(m.group(1), m.group(2), int(m.group(3)))] = run
+    return runs, backoff
 
 
 def cpu_and_memory(run):
@@ -62,7 +70,7 @@ def best(runs, mode, service):
     return max(candidates)[1] if candidates else None
 
 
-def tables(runs):
+def tables(runs, backoff):
     out = ["| service | mode | clients | answered/s | p50 ms | p99 ms | errors | server CPU | peak RSS |",
            "|---|---|---:|---:|---:|---:|---|---:|---:|"]
     for service in TARGETS:
@@ -91,13 +99,15 @@ def tables(runs):
         out.append("| %s | >= %d/s, p99 <= %g ms | %s | %s | %s | %s |" % (
             call, rate, p99, cells[0] if cells else "-", cells[1] if len(cells) > 1 else "-",
             ratio, "; ".join(met)))
-    out += ["", "Overload: %d clients (4 x the sweep's top), against the sweep's best run:" % OVERLOAD, "",
-            "| service | mode | admitted/s | admitted p99 / best p99 | refused (codes) | refusal p99 | "
-            "peak RSS / cap | verdict |", "|---|---|---:|---:|---|---:|---:|---|"]
+    out += ["", "Overload: %d clients (4 x the sweep's top), against the sweep's best run; a refused "
+            "client pauses 1 ms, or backs off (exponential, full jitter, up to 100 ms):" % OVERLOAD, "",
+            "| service | mode | client | admitted/s | admitted p99 / best p99 | refused (codes) | "
+            "refusal p99 | peak RSS / cap | verdict |", "|---|---|---|---:|---:|---|---:|---:|---|"]
     for service, (_, _, _, cap) in TARGETS.items():
-        for mode in ("container", "bare"):
+        for mode, client in (("container", "1 ms"), ("container", "backoff"), ("bare", "1 ms"),
+                             ("bare", "backoff")):
             c = best(runs, mode, service)
-            o = runs.get((mode, service, OVERLOAD))
+            o = runs.get((mode, service, OVERLOAD)) if client == "1 ms" else backoff.get((mode, service))
             if c is None or o is None:
                 continue
             b = runs[(mode, service, c)]
@@ -111,8 +121,8 @@ def tables(runs):
             if hwm is not None:
                 verdict.append("memory under cap" if hwm <= cap else "memory OVER cap")
             refused = ", ".join("%s %d" % kv for kv in sorted(o["errors"].items())) or "none"
-            out.append("| %s | %s | %.0f | %.2f / %.2f ms = %.1fx | %s | %s | %s | %s |" % (
-                service, mode, o["answered_per_s"], o["latency_ms"]["p99"], b["latency_ms"]["p99"],
+            out.append("| %s | %s | %s | %.0f | %.2f / %.2f ms = %.1fx | %s | %s | %s | %s |" % (
+                service, mode, client, o["answered_per_s"], o["latency_ms"]["p99"], b["latency_ms"]["p99"],
                 ratio, refused, "-" if not o["error_count"] else "%.2f ms" % o["error_latency_ms"]["p99"],
                 "-" if hwm is None else "%.0f / %d MiB" % (hwm, cap), "; ".join(verdict)))
     return "\n".join(out)
@@ -144,11 +154,11 @@ def main(argv):
     if len(argv) != 2:
         print(__doc__, file=sys.stderr)
         return 2
-    runs = load(argv[1])
+    runs, backoff = load(argv[1])
     if not runs:
         print("load-table.py: no mav-load JSON in %s" % argv[1], file=sys.stderr)
         return 1
-    print(tables(runs))
+    print(tables(runs, backoff))
     return 0
 
 

@@ -3,10 +3,11 @@
 # replicas. Not meant to be run by itself.
 #
 # Stage 7 runs mav-load against each service's hot call at concurrency 1, 2, 4, 8 and an
-# overload run at 32 (4 x the sweep's top), first against the container, then against a bare
+# overload run at 32 (4 x the sweep's top; twice: refused clients pausing 1 ms, then backing off
+# up to 100 ms), first against the container, then against a bare
 # process of the same executable on the same port; servers and mav-load are pinned to $cpus
 # (taskset; a container's processes are host processes). Each run writes
-# OUT/load/<mode>-<service>-c<C>.json; deploy/load-table.py turns them into OUT/load.md.
+# OUT/load/<mode>-<service>-c<C>[-backoff].json; deploy/load-table.py turns them into OUT/load.md.
 
 load_concurrencies=(1 2 4 8 32)
 
@@ -40,6 +41,14 @@ load_sweep() {
       fail "mav-load $service at concurrency $c against the $mode server failed (log: $out/logs/load-$name.log)"
     kill -0 "$pid" 2>/dev/null || fail "the $mode $service server died under load (log: $out/logs/load-$name.log)"
   done
+  # The overload again with clients that back off when refused (as well-behaved ones do).
+  local name="$mode-$service-c${load_concurrencies[-1]}-backoff"
+  echo "  $name"
+  taskset -c "$cpus" "$bin/mav-load" $(load_args "$service") --concurrency "${load_concurrencies[-1]}" \
+    --duration "$load_seconds" --backoff-max-ms 100 --cpu-pid "$pid" --json "$out/load/$name.json" \
+    > "$out/logs/load-$name.log" 2>&1 ||
+    fail "mav-load $service (backoff) against the $mode server failed (log: $out/logs/load-$name.log)"
+  kill -0 "$pid" 2>/dev/null || fail "the $mode $service server died under load (log: $out/logs/load-$name.log)"
 }
 
 container_pid() { podman inspect -f '{{.State.Pid}}' "${project}_${1}_1"; }
@@ -78,7 +87,7 @@ load_all() {
     fail "docker-compose up planning (replicas file) failed (log: $out/logs/compose-planning.log)"
   wait_healthy planning 300
   for s in "${services_under_load[@]}"; do load_sweep container "$s" "$(container_pid "$s")"; done
-  end "${#services_under_load[@]} services x ${#load_concurrencies[@]} runs of $load_seconds s"
+  end "${#services_under_load[@]} services x $(( ${#load_concurrencies[@]} + 1 )) runs of $load_seconds s"
 
   begin "7b load tests against bare processes"
   docker-compose -p "$project" -f "$repo/docker-compose.yml" stop > "$out/logs/compose-stop.log" 2>&1 ||

@@ -28,7 +28,7 @@
 # Environment: MAV_SIM_PORT, MAV_LOCALIZATION_PORT, MAV_MAPPING_PORT, MAV_PLANNING_PORT,
 # MAV_CONTROL_PORT (50051-50055), MAV_PLANNING_PORT_2/_3 (50064, 50074), MAV_DDS_DOMAIN (a free
 # one is drawn), DEBIAN_MIRROR (the one apt uses), CPUS (cores the services and the load run
-# on, default 0,1).
+# on, default 0,1), MAV_STACK_PROJECT (the compose project, default mavstack).
 # Exit status 0 when every stage passed; 1 when one failed (named, with its service's log);
 # 2 on a usage error.
 set -euo pipefail
@@ -62,7 +62,10 @@ export MAV_PLANNING_PORT_3="${MAV_PLANNING_PORT_3:-50074}"
 # A DDS domain of its own keeps this run apart from anything else on the machine.
 export MAV_DDS_DOMAIN="${MAV_DDS_DOMAIN:-$(( ($$ % 100) + 120 ))}"
 cpus="${CPUS:-0,1}"
-project=mavstack
+# The compose project: its containers, volume and teardown are this run's alone.
+project="${MAV_STACK_PROJECT:-mavstack}"
+[[ "$project" =~ ^[a-z0-9][a-z0-9_-]*$ ]] ||
+  { echo "stack-test.sh: MAV_STACK_PROJECT: '$project' is not a compose project name ([a-z0-9_-])" >&2; exit 2; }
 image=mav-stack:latest
 bin="$repo/build/bin"
 compose_files=(-f "$repo/docker-compose.yml" -f "$repo/deploy/compose.replicas.yml")

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <random>
 #include <sstream>
 #include <thread>
 
@@ -84,6 +85,7 @@ Result<std::vector<ServerUsage>> ParsePids(const std::string& text) {
 struct Shared {
   const LoadRun* run = nullptr;
   double deadline_ms = 0;
+  double backoff_max_ms = 0;
   int64_t end_ns = 0;
   Tally tally;
 };
@@ -108,8 +110,20 @@ void Record(const grpc::Status& status, const Reply& reply, const std::string& p
   }
 }
 
+// The pause after the `failures`-th failed call in a row: 1 ms, or with a cap the full-jitter
+// exponential backoff of CommonOptions::backoff_max_ms.
+std::chrono::microseconds PauseAfterFailure(double backoff_max_ms, int failures,
+                                            std::mt19937* random) {
+  if (backoff_max_ms <= 0) return std::chrono::milliseconds(1);
+  const double ceiling_ms = std::min(backoff_max_ms, std::ldexp(1.0, std::min(failures, 30)));
+  std::uniform_real_distribution<double> pause_ms(0.0, ceiling_ms);
+  return std::chrono::microseconds(static_cast<int64_t>(pause_ms(*random) * 1e3));
+}
+
 // One client thread: calls back to back until the end of the run.
-void CallUntilEnd(Shared* shared) {
+void CallUntilEnd(Shared* shared, uint32_t seed) {
+  std::mt19937 random(seed);
+  int failures = 0;  // in a row
   while (MonotonicNowNs() < shared->end_ns) {
     grpc::ClientContext context;
     context.set_deadline(
@@ -121,7 +135,10 @@ void CallUntilEnd(Shared* shared) {
     const double ms = MsSince(call_ns);
     Record(status, reply, context.peer(), ms, &shared->tally);
     // A refused client pauses instead of spinning on the server's cores.
-    if (!status.ok()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    failures = status.ok() ? 0 : failures + 1;
+    if (failures > 0) {
+      std::this_thread::sleep_for(PauseAfterFailure(shared->backoff_max_ms, failures, &random));
+    }
   }
 }
 
@@ -296,6 +313,10 @@ void AddCommonFlags(FlagParser* flags, CommonOptions* o, int default_port) {
   flags->AddDouble("duration", &o->duration_s, "how long to call, s", 1e-3, 86400);
   flags->AddDouble("deadline-ms", &o->deadline_ms, "deadline of each call, ms", 1e-3, 3.6e6);
   flags->AddBool("fail-on-errors", &o->fail_on_errors, "exit 1 on any RPC error");
+  flags->AddDouble("backoff-max-ms", &o->backoff_max_ms,
+                   "after a failed call: 0 = pause 1 ms; else a random pause up to "
+                   "min(this, 1 ms x 2^failures in a row)",
+                   0, 60000);
   flags->AddDouble("max-p99-ms", &o->max_p99_ms, "exit 1 when p99 exceeds this (0 = no bound)", 0,
                    3.6e6);
   flags->AddString("json", &o->json_path, "write the totals to FILE as JSON");
@@ -352,11 +373,14 @@ int RunLoad(const CommonOptions& o, const LoadRun& run) {
   Shared shared;
   shared.run = &run;
   shared.deadline_ms = o.deadline_ms;
+  shared.backoff_max_ms = o.backoff_max_ms;
   for (ServerUsage& u : totals.servers) u.before = ReadProcess(u.pid);
   const int64_t start_ns = MonotonicNowNs();
   shared.end_ns = start_ns + SecondsToNs(o.duration_s);
   std::vector<std::thread> workers;
-  for (int64_t w = 0; w < o.concurrency; ++w) workers.emplace_back(CallUntilEnd, &shared);
+  for (int64_t w = 0; w < o.concurrency; ++w) {
+    workers.emplace_back(CallUntilEnd, &shared, static_cast<uint32_t>(w + 1));
+  }
   PrintProgress(start_ns, &shared);
   for (std::thread& t : workers) t.join();
   totals.elapsed_s = SecondsSince(start_ns);

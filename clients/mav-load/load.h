@@ -34,6 +34,9 @@ struct CommonOptions {
   double deadline_ms = 1000;
   double max_p99_ms = 0;
   bool fail_on_errors = false;
+  // After a failed call: 0 = pause 1 ms; > 0 = back off exponentially with full jitter, a random
+  // pause in [0, min(this, 1 ms x 2^failures in a row)] ms (reset by an answered call).
+  double backoff_max_ms = 0;
   std::string json_path;  // --json: the totals as JSON
   std::string cpu_pids;   // --cpu-pid: "PID[,PID...]" of the server processes
 };

@@ -83,10 +83,14 @@ begin() {
   stage_start=$(date +%s)
   bold "$1"
 }
-end() {  # end [NOTE]
-  rows+=("$(printf '%-52s %-6s %6d s  %s' "$stage_name" ok "$(( $(date +%s) - stage_start ))" "${1:-}")")
+row() {  # row NAME RESULT START_S NOTE: a line of the table, timed from START_S
+  rows+=("$(printf '%-52s %-6s %6d s  %s' "$1" "$2" "$(( $(date +%s) - $3 ))" "$4")")
+}
+close_stage() {  # close_stage RESULT NOTE: the open stage's line, when a stage is open
+  if [[ -n "$stage_name" ]]; then row "$stage_name" "$1" "$stage_start" "$2"; fi
   stage_name=""
 }
+end() { close_stage ok "${1:-}"; }  # end [NOTE]
 print_table() {
   {
     printf '\n%-52s %-6s %8s  %s\n' stage result time note
@@ -99,10 +103,7 @@ fail() {  # fail MESSAGE [SERVICE]: names the failed stage, shows the service's 
     echo "--- last lines of $2's log (podman logs --tail 30 ${project}_${2}_1):" >&2
     podman logs --tail 30 "${project}_${2}_1" >&2 2>&1 || true
   fi
-  if [[ -n "$stage_name" ]]; then
-    rows+=("$(printf '%-52s %-6s %6d s  %s' "$stage_name" FAILED "$(( $(date +%s) - stage_start ))" "$1")")
-    stage_name=""
-  fi
+  close_stage FAILED "$1"
   exit 1
 }
 
@@ -115,8 +116,7 @@ socket_dir=""
 teardown() {
   local rc=$?
   trap - EXIT INT TERM
-  [[ -n "$stage_name" ]] && rows+=("$(printf '%-52s %-6s %6d s  %s' "$stage_name" FAILED "$(( $(date +%s) - stage_start ))" "interrupted")")
-  stage_name=""
+  close_stage FAILED interrupted
   bold "teardown"
   local t0
   t0=$(date +%s)
@@ -144,10 +144,10 @@ teardown() {
   fi
   [[ -n "$socket_dir" && -e "$socket_dir" ]] && left+=" $socket_dir"
   if [[ -n "$left" ]]; then
-    rows+=("$(printf '%-52s %-6s %6d s  %s' teardown FAILED "$(( $(date +%s) - t0 ))" "left behind: $left")")
+    row teardown FAILED "$t0" "left behind: $left"
     rc=1
   else
-    rows+=("$(printf '%-52s %-6s %6d s  %s' teardown ok "$(( $(date +%s) - t0 ))" "no container, volume or socket left")")
+    row teardown ok "$t0" "no container, volume or socket left"
   fi
   print_table
   exit "$rc"

@@ -116,6 +116,11 @@ Result<std::shared_ptr<grpc::Channel>> MakeChannel(const std::string& address) {
   return MakeChannel(target, StackServices());
 }
 
+std::shared_ptr<grpc::Channel> MakeCheckedChannel(const std::string& address) {
+  Result<ChannelTarget> target = ParseTarget(address);
+  return MakeChannel(target.ok() ? *target : ChannelTarget{address}, StackServices());
+}
+
 std::string PeerAddress(const std::string& peer) {
   for (std::string_view scheme : {"ipv4:", "ipv6:"}) {
     if (StartsWith(peer, scheme)) return peer.substr(scheme.size());

@@ -51,6 +51,10 @@ std::shared_ptr<grpc::Channel> MakeChannel(const ChannelTarget& target,
 // ParseTarget + MakeChannel, with the retry policy for StackServices().
 Result<std::shared_ptr<grpc::Channel>> MakeChannel(const std::string& address);
 
+// MakeChannel(address) for an address its caller has already checked with ParseTarget; one that
+// does not parse is given to gRPC as it is (which reports it at the first call).
+std::shared_ptr<grpc::Channel> MakeCheckedChannel(const std::string& address);
+
 // "127.0.0.1:50054" for a peer string "ipv4:127.0.0.1:50054" (ClientContext::peer()); "[::1]:1"
 // for "ipv6:[::1]:1"; other strings as they are.
 std::string PeerAddress(const std::string& peer);

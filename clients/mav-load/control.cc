@@ -25,9 +25,7 @@ constexpr char kUsage[] =
 
 std::string ModeName(const v1::ControlState& state) {
   if (!state.configured()) return "UNCONFIGURED";
-  const std::string& name = v1::ControlMode_Name(state.mode());
-  static const std::string kPrefix = "CONTROL_MODE_";
-  return name.rfind(kPrefix, 0) == 0 ? name.substr(kPrefix.size()) : name;
+  return WithoutPrefix(v1::ControlMode_Name(state.mode()), "CONTROL_MODE_");
 }
 
 }  // namespace

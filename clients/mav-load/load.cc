@@ -342,6 +342,10 @@ std::optional<int> ParseFlags(FlagParser* flags, const std::vector<std::string>&
   return std::nullopt;
 }
 
+std::string WithoutPrefix(const std::string& name, const std::string& prefix) {
+  return name.rfind(prefix, 0) == 0 ? name.substr(prefix.size()) : name;
+}
+
 int Usage(const std::string& message) {
   std::cerr << "mav-load: " << message << "\n";
   return 2;

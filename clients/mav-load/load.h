@@ -49,6 +49,10 @@ void AddCommonFlags(FlagParser* flags, CommonOptions* options, int default_port)
 std::optional<int> ParseFlags(FlagParser* flags, const std::vector<std::string>& args,
                               const CommonOptions& options);
 
+// `name` without `prefix` when it starts with it: a reply name from a proto enum value's name,
+// e.g. WithoutPrefix(v1::PlanStatus_Name(s), "PLAN_STATUS_") == "SUCCESS".
+std::string WithoutPrefix(const std::string& name, const std::string& prefix);
+
 // "mav-load: <message>" on stderr; returns 2 (Usage) or 1 (Fail).
 int Usage(const std::string& message);
 int Fail(const std::string& message);

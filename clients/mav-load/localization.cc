@@ -104,9 +104,7 @@ Status Configure(const LocalizationOptions& o, const StereoFrames& frames,
 }
 
 std::string TrackingName(v1::TrackingState state) {
-  const std::string& name = v1::TrackingState_Name(state);
-  static const std::string kPrefix = "TRACKING_STATE_";
-  return name.rfind(kPrefix, 0) == 0 ? name.substr(kPrefix.size()) : name;
+  return WithoutPrefix(v1::TrackingState_Name(state), "TRACKING_STATE_");
 }
 
 // What the client threads share: the requests without their time stamps, the call counter.

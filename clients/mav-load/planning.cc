@@ -130,9 +130,7 @@ std::vector<v1::PlanPathRequest> MakeRequests(const Queries& queries) {
 }
 
 std::string PlanStatusName(v1::PlanStatus status) {
-  const std::string& name = v1::PlanStatus_Name(status);
-  static const std::string kPrefix = "PLAN_STATUS_";
-  return name.rfind(kPrefix, 0) == 0 ? name.substr(kPrefix.size()) : name;
+  return WithoutPrefix(v1::PlanStatus_Name(status), "PLAN_STATUS_");
 }
 
 }  // namespace

@@ -57,10 +57,7 @@ void ResolvePortOrExit(const FlagParser& flags, Connection* connection) {
 }  // namespace
 
 std::shared_ptr<grpc::Channel> MakeChannel(const Connection& connection) {
-  Result<client::ChannelTarget> target = client::ParseTarget(connection.Target());
-  // ParseOrExit refused a bad target; a host without one is given to gRPC as it is.
-  return client::MakeChannel(target.ok() ? *target : client::ChannelTarget{connection.Target()},
-                             client::StackServices());
+  return client::MakeCheckedChannel(connection.Target());  // ParseOrExit checked it
 }
 
 std::vector<std::string> ParseOrExit(FlagParser* flags, Connection* connection,

@@ -483,22 +483,19 @@ Result<std::unique_ptr<ServiceDriver>> ServiceDriver::Create(
   s.options = options;
   s.addresses = addresses;
   s.progress = progress;
-  // mavctl mission run checked the addresses (client::ParseTarget); another is given as it is.
-  auto channel = [](const std::string& address) {
-    Result<client::ChannelTarget> target = client::ParseTarget(address);
-    return client::MakeChannel(target.ok() ? *target : client::ChannelTarget{address},
-                               client::StackServices());
-  };
-  s.simulator = v1::Simulator::NewStub(channel(addresses.simulator));
-  s.control = v1::Control::NewStub(channel(addresses.control));
-  s.planning = v1::Planning::NewStub(channel(addresses.planning));
-  if (s.vo()) s.localization = v1::Localization::NewStub(channel(addresses.localization));
+  // mavctl mission run checked the addresses (client::ParseTarget).
+  s.simulator = v1::Simulator::NewStub(client::MakeCheckedChannel(addresses.simulator));
+  s.control = v1::Control::NewStub(client::MakeCheckedChannel(addresses.control));
+  s.planning = v1::Planning::NewStub(client::MakeCheckedChannel(addresses.planning));
+  if (s.vo()) {
+    s.localization = v1::Localization::NewStub(client::MakeCheckedChannel(addresses.localization));
+  }
   if (options.online_map) {
     if (!s.vo()) {
       return Status::InvalidArgument(
           "online map: it is built from the VO's keyframes (pose source vo)");
     }
-    s.mapping = v1::Mapping::NewStub(channel(addresses.mapping));
+    s.mapping = v1::Mapping::NewStub(client::MakeCheckedChannel(addresses.mapping));
   }
   s.T_vehicle_rig = mission::VehicleRigMount(options.vehicle.camera_pitch_rad);
   s.recorder = std::make_unique<mission::FlightRecorder>(options.record_rate_hz);

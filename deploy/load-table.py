@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The load tests' tables (deploy/stack-test.sh, stage 7), from mav-load's --json files.
 
-  deploy/load-table.py DIR            markdown tables of DIR/<mode>-<service>-c<C>.json
+  deploy/load-table.py DIR            markdown tables of DIR/<mode>-<service>-c<C>[-backoff|-async].json
   deploy/load-table.py --replicas SPREAD.json KILL.json
                                       one line on the round_robin spread and the killed replica;
                                       exit 1 when a replica's share is off a third by more than
@@ -27,23 +27,26 @@ OVERLOAD = 32
 SHED_CODES = {"RESOURCE_EXHAUSTED", "DEADLINE_EXCEEDED"}
 
 
-RUN_NAME = re.compile(r"^(container|bare)-([a-z]+)-c([0-9]+)(-backoff)?\.json$")
+RUN_NAME = re.compile(r"^(container|bare)-([a-z]+)-c([0-9]+)(-backoff|-async)?\.json$")
 
 
 def load(directory):
-    """{(mode, service, clients): run} and {(mode, service): the overload run with backoff}."""
-    runs, backoff = {}, {}
+    """{(mode, service, clients): run}, {(mode, service): the overload run with backoff} and
+    {(mode, service, clients): run with mav-load's asynchronous client}."""
+    runs, backoff, async_runs = {}, {}, {}
     for name in os.listdir(directory):
         m = RUN_NAME.match(name)
         if not m:
             continue
         with open(os.path.join(directory, name)) as f:
             run = json.load(f)
-        if m.group(4):
+        if m.group(4) == "-backoff":
             backoff[(m.group(1), m.group(2))] = run
+        elif m.group(4) == "-async":
+            async_runs[(m.group(1), m.group(2), int(m.group(3)))] = run
         else:
             runs[(m.group(1), m.group(2), int(m.group(3)))] = run
-    return runs, backoff
+    return runs, backoff, async_runs
 
 
 def cpu_and_memory(run):
@@ -70,7 +73,28 @@ def best(runs, mode, service):
     return max(candidates)[1] if candidates else None
 
 
-def tables(runs, backoff):
+def async_table(async_runs):
+    """The runs with mav-load --client async (no client thread per call): what the service
+    answers when the client on the same cores costs less."""
+    if not async_runs:
+        return []
+    out = ["", "The same calls from mav-load's asynchronous client (`--client async`: gRPC's "
+           "callback API, no client thread per call):", "",
+           "| service | mode | calls in flight | answered/s | p50 ms | p99 ms | errors | server CPU | peak RSS "
+           "| server CPU per call | target |", "|---|---|---:|---:|---:|---:|---|---:|---:|---:|---|"]
+    for (mode, service, c), run in sorted(async_runs.items(), key=lambda kv: (
+            list(TARGETS).index(kv[0][1]), kv[0][0] != "container", kv[0][2])):
+        _, rate, p99, _ = TARGETS[service]
+        server = (run.get("servers") or [{}])[0]
+        per_call = "-" if server.get("cpu_s") is None else "%.1f us" % (
+            1e6 * server["cpu_s"] / max(1, run["calls"]))
+        met = (run["answered_per_s"] >= rate and run["latency_ms"]["p99"] <= p99 and
+               run["error_count"] == 0)
+        out.append(row(service, mode, c, run) + " %s | %s |" % (per_call, "met" if met else "NOT met"))
+    return out
+
+
+def tables(runs, backoff, async_runs):
     out = ["| service | mode | clients | answered/s | p50 ms | p99 ms | errors | server CPU | peak RSS |",
            "|---|---|---:|---:|---:|---:|---|---:|---:|"]
     for service in TARGETS:
@@ -100,7 +124,8 @@ def tables(runs, backoff):
             call, rate, p99, cells[0] if cells else "-", cells[1] if len(cells) > 1 else "-",
             ratio, "; ".join(met)))
     out += ["", "Overload: %d clients (4 x the sweep's top), against the sweep's best run; a refused "
-            "client pauses 1 ms, or backs off (exponential, full jitter, up to 100 ms):" % OVERLOAD, "",
+            "client pauses 1 ms, or backs off (mav-load's default: full jitter, 10 ms doubling up "
+            "to 1 s):" % OVERLOAD, "",
             "| service | mode | client | admitted/s | admitted p99 / best p99 | refused (codes) | "
             "refusal p99 | peak RSS / cap | verdict |", "|---|---|---|---:|---:|---|---:|---:|---|"]
     for service, (_, _, _, cap) in TARGETS.items():
@@ -125,7 +150,7 @@ def tables(runs, backoff):
                 service, mode, client, o["answered_per_s"], o["latency_ms"]["p99"], b["latency_ms"]["p99"],
                 ratio, refused, "-" if not o["error_count"] else "%.2f ms" % o["error_latency_ms"]["p99"],
                 "-" if hwm is None else "%.0f / %d MiB" % (hwm, cap), "; ".join(verdict)))
-    return "\n".join(out)
+    return "\n".join(out + async_table(async_runs))
 
 
 def replicas(spread_path, kill_path):
@@ -154,11 +179,11 @@ def main(argv):
     if len(argv) != 2:
         print(__doc__, file=sys.stderr)
         return 2
-    runs, backoff = load(argv[1])
+    runs, backoff, async_runs = load(argv[1])
     if not runs:
         print("load-table.py: no mav-load JSON in %s" % argv[1], file=sys.stderr)
         return 1
-    print(tables(runs, backoff))
+    print(tables(runs, backoff, async_runs))
     return 0
 
 

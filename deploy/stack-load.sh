@@ -4,10 +4,13 @@
 #
 # Stage 7 runs mav-load against each service's hot call at concurrency 1, 2, 4, 8 and an
 # overload run at 32 (4 x the sweep's top; twice: refused clients pausing 1 ms, then backing off
-# up to 100 ms), first against the container, then against a bare
+# as mav-load does by default, 10 ms doubling up to 1 s), first against the container, then a bare
 # process of the same executable on the same port; servers and mav-load are pinned to $cpus
-# (taskset; a container's processes are host processes). Each run writes
-# OUT/load/<mode>-<service>-c<C>[-backoff].json; deploy/load-table.py turns them into OUT/load.md.
+# (taskset; a container's processes are host processes). Mapping and control are run once more
+# at 8 calls in flight from mav-load's asynchronous client (--client async), which costs the
+# shared cores less per call than a client thread per call. Each run writes
+# OUT/load/<mode>-<service>-c<C>[-backoff|-async].json; deploy/load-table.py turns them into
+# OUT/load.md.
 
 load_concurrencies=(1 2 4 8 32)
 
@@ -35,7 +38,9 @@ load_sweep() {
   for c in "${load_concurrencies[@]}"; do
     local name="$mode-$service-c$c"
     echo "  $name"
-    taskset -c "$cpus" "$bin/mav-load" $(load_args "$service") --concurrency "$c" \
+    # A refused client pauses 1 ms (--backoff-max-ms 0): the sweep measures the service, and the
+    # overload at 32 shows what clients that do not back off do to it.
+    taskset -c "$cpus" "$bin/mav-load" $(load_args "$service") --concurrency "$c" --backoff-max-ms 0 \
       --duration "$load_seconds" --cpu-pid "$pid" --json "$out/load/$name.json" \
       > "$out/logs/load-$name.log" 2>&1 ||
       fail "mav-load $service at concurrency $c against the $mode server failed (log: $out/logs/load-$name.log)"
@@ -45,10 +50,18 @@ load_sweep() {
   local name="$mode-$service-c${load_concurrencies[-1]}-backoff"
   echo "  $name"
   taskset -c "$cpus" "$bin/mav-load" $(load_args "$service") --concurrency "${load_concurrencies[-1]}" \
-    --duration "$load_seconds" --backoff-max-ms 100 --cpu-pid "$pid" --json "$out/load/$name.json" \
+    --duration "$load_seconds" --cpu-pid "$pid" --json "$out/load/$name.json" \
     > "$out/logs/load-$name.log" 2>&1 ||
     fail "mav-load $service (backoff) against the $mode server failed (log: $out/logs/load-$name.log)"
   kill -0 "$pid" 2>/dev/null || fail "the $mode $service server died under load (log: $out/logs/load-$name.log)"
+  if [[ "$service" == mapping || "$service" == control ]]; then
+    name="$mode-$service-c8-async"
+    echo "  $name"
+    taskset -c "$cpus" "$bin/mav-load" $(load_args "$service") --concurrency 8 --client async \
+      --duration "$load_seconds" --cpu-pid "$pid" --json "$out/load/$name.json" \
+      > "$out/logs/load-$name.log" 2>&1 ||
+      fail "mav-load $service --client async against the $mode server failed (log: $out/logs/load-$name.log)"
+  fi
 }
 
 container_pid() { podman inspect -f '{{.State.Pid}}' "${project}_${1}_1"; }
@@ -87,7 +100,7 @@ load_all() {
     fail "docker-compose up planning (replicas file) failed (log: $out/logs/compose-planning.log)"
   wait_healthy planning 300
   for s in "${services_under_load[@]}"; do load_sweep container "$s" "$(container_pid "$s")"; done
-  end "${#services_under_load[@]} services x $(( ${#load_concurrencies[@]} + 1 )) runs of $load_seconds s"
+  end "${#services_under_load[@]} services x $(( ${#load_concurrencies[@]} + 1 )) runs of $load_seconds s, + 1 async for mapping and control"
 
   begin "7b load tests against bare processes"
   docker-compose -p "$project" -f "$repo/docker-compose.yml" stop > "$out/logs/compose-stop.log" 2>&1 ||

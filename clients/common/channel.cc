@@ -83,8 +83,9 @@ Result<ChannelTarget> ParseTarget(const std::string& address) {
   return ChannelTarget{(ipv4 ? "ipv4:" : "ipv6:") + address, true};
 }
 
-std::string BalancedServiceConfig(const std::vector<std::string>& services) {
-  std::string config = R"({"loadBalancingConfig":[{"round_robin":{}}],"methodConfig":[{"name":[)";
+std::string ServiceConfig(const std::vector<std::string>& services, bool balanced) {
+  std::string config = balanced ? R"({"loadBalancingConfig":[{"round_robin":{}}],)" : "{";
+  config += R"("methodConfig":[{"name":[)";
   for (size_t i = 0; i < services.size(); ++i) {
     config.append(i == 0 ? "" : ",").append(R"({"service":")").append(services[i]).append("\"}");
   }
@@ -102,12 +103,12 @@ const std::vector<std::string>& StackServices() {
 
 std::shared_ptr<grpc::Channel> MakeChannel(const ChannelTarget& target,
                                            const std::vector<std::string>& services) {
-  if (!target.balanced) {
-    return grpc::CreateChannel(target.target, grpc::InsecureChannelCredentials());
-  }
   grpc::ChannelArguments arguments;
-  arguments.SetLoadBalancingPolicyName("round_robin");
-  arguments.SetServiceConfigJSON(BalancedServiceConfig(services));
+  if (target.balanced) arguments.SetLoadBalancingPolicyName("round_robin");
+  arguments.SetServiceConfigJSON(ServiceConfig(services, target.balanced));
+  arguments.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, kReconnectBackoffMs.first);
+  arguments.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, kReconnectBackoffMs.first);
+  arguments.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, kReconnectBackoffMs.second);
   return grpc::CreateCustomChannel(target.target, grpc::InsecureChannelCredentials(), arguments);
 }
 

@@ -48,6 +48,15 @@ int RunControl(const std::vector<std::string>& args) {
     if (status.ok()) reply->name = ModeName(state);
     return status;
   };
+  run.async_call = [stub](grpc::ClientContext* context, Reply* reply, DoneFunction done) {
+    static const v1::ControlGetStateRequest kRequest;
+    auto state = std::make_shared<v1::ControlState>();
+    stub->async()->GetState(context, &kRequest, state.get(),
+                            [state, reply, done = std::move(done)](const grpc::Status& status) {
+                              if (status.ok()) reply->name = ModeName(*state);
+                              done(status);
+                            });
+  };
   return RunLoad(options, run);
 }
 

@@ -3,8 +3,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -85,7 +87,9 @@ Result<std::vector<ServerUsage>> ParsePids(const std::string& text) {
 struct Shared {
   const LoadRun* run = nullptr;
   double deadline_ms = 0;
+  double backoff_base_ms = 0;
   double backoff_max_ms = 0;
+  bool fail_fast = false;
   int64_t end_ns = 0;
   Tally tally;
 };
@@ -111,11 +115,12 @@ void Record(const grpc::Status& status, const Reply& reply, const std::string& p
 }
 
 // The pause after the `failures`-th failed call in a row: 1 ms, or with a cap the full-jitter
-// exponential backoff of CommonOptions::backoff_max_ms.
-std::chrono::microseconds PauseAfterFailure(double backoff_max_ms, int failures,
+// exponential backoff of CommonOptions::backoff_base_ms and backoff_max_ms.
+std::chrono::microseconds PauseAfterFailure(const Shared& shared, int failures,
                                             std::mt19937* random) {
-  if (backoff_max_ms <= 0) return std::chrono::milliseconds(1);
-  const double ceiling_ms = std::min(backoff_max_ms, std::ldexp(1.0, std::min(failures, 30)));
+  if (shared.backoff_max_ms <= 0) return std::chrono::milliseconds(1);
+  const double ceiling_ms = std::min(
+      shared.backoff_max_ms, shared.backoff_base_ms * std::ldexp(1.0, std::min(failures - 1, 30)));
   std::uniform_real_distribution<double> pause_ms(0.0, ceiling_ms);
   return std::chrono::microseconds(static_cast<int64_t>(pause_ms(*random) * 1e3));
 }
@@ -129,6 +134,7 @@ void CallUntilEnd(Shared* shared, uint32_t seed) {
     context.set_deadline(
         std::chrono::system_clock::now() +
         std::chrono::microseconds(static_cast<int64_t>(shared->deadline_ms * 1e3)));
+    context.set_wait_for_ready(!shared->fail_fast);
     Reply reply;
     const int64_t call_ns = MonotonicNowNs();
     const grpc::Status status = shared->run->call(&context, &reply);
@@ -137,31 +143,132 @@ void CallUntilEnd(Shared* shared, uint32_t seed) {
     // A refused client pauses instead of spinning on the server's cores.
     failures = status.ok() ? 0 : failures + 1;
     if (failures > 0) {
-      std::this_thread::sleep_for(PauseAfterFailure(shared->backoff_max_ms, failures, &random));
+      std::this_thread::sleep_for(PauseAfterFailure(*shared, failures, &random));
     }
   }
 }
 
+// ---- the asynchronous client (--client async) ---------------------------------------------
+
+// Calls that failed wait out their pause here, on one thread, so that no gRPC callback thread
+// sleeps: Add(wake, resume) runs `resume` on that thread at `wake` (MonotonicNowNs), in order.
+class PauseLine {
+ public:
+  PauseLine() : thread_([this] { Run(); }) {}
+  ~PauseLine() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+    }
+    changed_.notify_all();
+    thread_.join();
+  }
+  void Add(int64_t wake_ns, std::function<void()> resume) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      waiting_.emplace(wake_ns, std::move(resume));
+    }
+    changed_.notify_all();
+  }
+
+ private:
+  void Run() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    while (!stopping_) {
+      if (waiting_.empty()) {
+        changed_.wait(lock);
+        continue;
+      }
+      const int64_t wake_ns = waiting_.begin()->first;
+      if (MonotonicNowNs() < wake_ns) {
+        changed_.wait_for(lock, std::chrono::nanoseconds(wake_ns - MonotonicNowNs()));
+        continue;
+      }
+      std::function<void()> resume = std::move(waiting_.begin()->second);
+      waiting_.erase(waiting_.begin());
+      lock.unlock();
+      resume();
+      lock.lock();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::multimap<int64_t, std::function<void()>> waiting_;
+  bool stopping_ = false;
+  std::thread thread_;  // last: starts once the rest is built
+};
+
+// One of the C calls in flight: each completion records the call and starts the next (after a
+// failure, from the pause line) until the end of the run, then counts itself out.
+class AsyncSlot {
+ public:
+  AsyncSlot(Shared* shared, PauseLine* pauses, uint32_t seed, std::function<void()> finished)
+      : shared_(shared), pauses_(pauses), random_(seed), finished_(std::move(finished)) {}
+
+  void Start() {
+    if (MonotonicNowNs() >= shared_->end_ns) {
+      finished_();
+      return;
+    }
+    // The previous call's context goes here, inside that call's completion: gRPC holds its own
+    // reference to the call until the completion has returned.
+    context_ = std::make_unique<grpc::ClientContext>();
+    context_->set_deadline(
+        std::chrono::system_clock::now() +
+        std::chrono::microseconds(static_cast<int64_t>(shared_->deadline_ms * 1e3)));
+    context_->set_wait_for_ready(!shared_->fail_fast);
+    reply_ = Reply();
+    call_ns_ = MonotonicNowNs();
+    shared_->run->async_call(context_.get(), &reply_,
+                             [this](const grpc::Status& status) { Done(status); });
+  }
+
+ private:
+  void Done(const grpc::Status& status) {
+    Record(status, reply_, context_->peer(), MsSince(call_ns_), &shared_->tally);
+    failures_ = status.ok() ? 0 : failures_ + 1;
+    if (failures_ == 0) {
+      Start();
+      return;
+    }
+    const int64_t pause_ns =
+        std::chrono::nanoseconds(PauseAfterFailure(*shared_, failures_, &random_)).count();
+    pauses_->Add(std::min(shared_->end_ns, MonotonicNowNs() + pause_ns), [this] { Start(); });
+  }
+
+  Shared* shared_;
+  PauseLine* pauses_;
+  std::mt19937 random_;
+  std::function<void()> finished_;
+  std::unique_ptr<grpc::ClientContext> context_;
+  Reply reply_;
+  int64_t call_ns_ = 0;
+  int failures_ = 0;  // in a row
+};
+
 // A line per second until the end: the calls of that second, percentiles of all timed replies
 // so far.
 void PrintProgress(int64_t start_ns, Shared* shared) {
-  uint64_t last_calls = 0;
+  uint64_t last_answered = 0, last_errors = 0;
   for (int second = 1; MonotonicNowNs() < shared->end_ns; ++second) {
     const int64_t wake_ns = std::min(shared->end_ns, start_ns + second * kNsPerSecond);
     std::this_thread::sleep_for(std::chrono::nanoseconds(wake_ns - MonotonicNowNs()));
     std::vector<double> so_far;
-    uint64_t calls = 0, errors = 0;
+    uint64_t answered = 0, errors = 0;
     {
       std::lock_guard<std::mutex> lock(shared->tally.mutex);
       so_far = shared->tally.latencies_ms;
-      calls = shared->tally.calls;
+      answered = shared->tally.answered;
       errors = shared->tally.error_count;
+      shared->tally.per_second.push_back({answered - last_answered, errors - last_errors});
     }
     const RuntimeStats s = SummarizeRuntimes(std::move(so_far));
-    std::printf("[%3d s] %6llu calls/s   p50 %7.2f ms   p99 %7.2f ms   errors %llu\n", second,
-                U(calls - last_calls), s.median_ms, s.p99_ms, U(errors));
+    std::printf("[%3d s] answered %6llu/s   failed %5llu/s   p50 %7.2f ms   p99 %7.2f ms\n", second,
+                U(answered - last_answered), U(errors - last_errors), s.median_ms, s.p99_ms);
     std::fflush(stdout);
-    last_calls = calls;
+    last_answered = answered;
+    last_errors = errors;
   }
 }
 
@@ -255,6 +362,16 @@ std::string CountObject(const std::map<std::string, uint64_t>& counts) {
   return out + "}";
 }
 
+// [[answered, failed], ...] per second of the run.
+std::string PerSecondJson(const Tally& tally) {
+  std::string out = "[";
+  for (const auto& [answered, failed] : tally.per_second) {
+    out += (out.size() > 1 ? ", [" : "[") + std::to_string(answered) + ", " +
+           std::to_string(failed) + "]";
+  }
+  return out + "]";
+}
+
 std::string ServersJson(const Totals& t) {
   std::string out = "[";
   for (const ServerUsage& u : t.servers) {
@@ -299,7 +416,8 @@ std::string TotalsJson(const CommonOptions& o, const LoadRun& run, const Tally& 
          ", \"max\": " + JsonNumber(t.error_latency.max_ms) + "}" +
          ",\n  \"error_count\": " + std::to_string(tally.error_count) +
          ",\n  \"per_backend\": " + CountObject(tally.backends) +
-         ",\n  \"servers\": " + ServersJson(t) + ",\n  \"failures\": " + failed + "\n}\n";
+         ",\n  \"per_second\": " + PerSecondJson(tally) + ",\n  \"servers\": " + ServersJson(t) +
+         ",\n  \"failures\": " + failed + "\n}\n";
 }
 
 }  // namespace
@@ -312,11 +430,20 @@ void AddCommonFlags(FlagParser* flags, CommonOptions* o, int default_port) {
   flags->AddInt("concurrency", &o->concurrency, "client threads calling at once", 1, 1024);
   flags->AddDouble("duration", &o->duration_s, "how long to call, s", 1e-3, 86400);
   flags->AddDouble("deadline-ms", &o->deadline_ms, "deadline of each call, ms", 1e-3, 3.6e6);
+  flags->AddString("client", &o->client,
+                   "sync: C threads, one blocking call each | async: C calls in flight from "
+                   "gRPC's callback API, no thread per call (cheaper: a small call's client "
+                   "costs less CPU)");
   flags->AddBool("fail-on-errors", &o->fail_on_errors, "exit 1 on any RPC error");
+  flags->AddDouble("backoff-base-ms", &o->backoff_base_ms,
+                   "after the n-th failed call in a row, a random pause up to "
+                   "min(--backoff-max-ms, this x 2^(n-1)) ms",
+                   0.001, 60000);
   flags->AddDouble("backoff-max-ms", &o->backoff_max_ms,
-                   "after a failed call: 0 = pause 1 ms; else a random pause up to "
-                   "min(this, 1 ms x 2^failures in a row)",
-                   0, 60000);
+                   "the longest pause after failed calls, ms (0 = a fixed 1 ms pause)", 0, 600000);
+  flags->AddBool("fail-fast", &o->fail_fast,
+                 "fail a call at once while the server is down (default: wait for it until the "
+                 "call's deadline, gRPC's wait_for_ready)");
   flags->AddDouble("max-p99-ms", &o->max_p99_ms, "exit 1 when p99 exceeds this (0 = no bound)", 0,
                    3.6e6);
   flags->AddString("json", &o->json_path, "write the totals to FILE as JSON");
@@ -335,6 +462,9 @@ std::optional<int> ParseFlags(FlagParser* flags, const std::vector<std::string>&
   }
   if (Result<client::ChannelTarget> t = client::ParseTarget(options.address); !t.ok()) {
     return Usage("--address: " + t.status().message());
+  }
+  if (options.client != "sync" && options.client != "async") {
+    return Usage("--client: '" + options.client + "' is neither sync nor async");
   }
   if (Result<std::vector<ServerUsage>> pids = ParsePids(options.cpu_pids); !pids.ok()) {
     return Usage(pids.status().message());
@@ -368,6 +498,9 @@ Result<std::shared_ptr<grpc::Channel>> Connect(const CommonOptions& options,
 }
 
 int RunLoad(const CommonOptions& o, const LoadRun& run) {
+  if (o.client == "async" && !run.async_call) {
+    return Usage("--client async: mav-load " + run.command + " has only a synchronous client");
+  }
   Totals totals;
   totals.servers = *ParsePids(o.cpu_pids);  // checked by ParseFlags
   std::printf("mav-load %s: %s, concurrency %lld, %.1f s, deadline %.0f ms%s%s\n",
@@ -377,16 +510,33 @@ int RunLoad(const CommonOptions& o, const LoadRun& run) {
   Shared shared;
   shared.run = &run;
   shared.deadline_ms = o.deadline_ms;
+  shared.backoff_base_ms = o.backoff_base_ms;
   shared.backoff_max_ms = o.backoff_max_ms;
+  shared.fail_fast = o.fail_fast;
   for (ServerUsage& u : totals.servers) u.before = ReadProcess(u.pid);
   const int64_t start_ns = MonotonicNowNs();
   shared.end_ns = start_ns + SecondsToNs(o.duration_s);
-  std::vector<std::thread> workers;
-  for (int64_t w = 0; w < o.concurrency; ++w) {
-    workers.emplace_back(CallUntilEnd, &shared, static_cast<uint32_t>(w + 1));
+  if (o.client == "async") {
+    // The slots outlive their last completion: each counts itself out as the last thing it
+    // does, and nothing of a slot is touched after that.
+    PauseLine pauses;
+    std::atomic<int64_t> running(o.concurrency);
+    std::vector<std::unique_ptr<AsyncSlot>> slots;
+    for (int64_t w = 0; w < o.concurrency; ++w) {
+      slots.push_back(std::make_unique<AsyncSlot>(&shared, &pauses, static_cast<uint32_t>(w + 1),
+                                                  [&running] { running.fetch_sub(1); }));
+    }
+    for (std::unique_ptr<AsyncSlot>& slot : slots) slot->Start();
+    PrintProgress(start_ns, &shared);
+    while (running.load() > 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  } else {
+    std::vector<std::thread> workers;
+    for (int64_t w = 0; w < o.concurrency; ++w) {
+      workers.emplace_back(CallUntilEnd, &shared, static_cast<uint32_t>(w + 1));
+    }
+    PrintProgress(start_ns, &shared);
+    for (std::thread& t : workers) t.join();
   }
-  PrintProgress(start_ns, &shared);
-  for (std::thread& t : workers) t.join();
   totals.elapsed_s = SecondsSince(start_ns);
   for (ServerUsage& u : totals.servers) u.after = ReadProcess(u.pid);
 

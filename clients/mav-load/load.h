@@ -1,10 +1,12 @@
 #pragma once
-// The load loop every mav-load command shares (docs/services.md, "mav-load"): C threads, each a
-// synchronous client on one shared channel, call one RPC back to back for S seconds with a
-// deadline per call; a line per second; at the end the rate, the latency percentiles, the
-// replies by what they said, the errors by gRPC code, the calls per backend (balanced targets),
-// the server's CPU time and memory (--cpu-pid) and the verdict; --json FILE writes the totals.
-// A command supplies its flags, its setup and one call function (CallFunction).
+// The load loop every mav-load command shares (docs/services.md, "mav-load"): C calls in flight
+// on one shared channel, back to back for S seconds with a deadline per call, either from C
+// threads each a synchronous client (--client sync) or from gRPC's own threads with its callback
+// API (--client async: no thread waits, a call's completion starts the next); a line per second; at
+// the end the rate, the latency percentiles, the replies by what they said, the errors by gRPC
+// code, the calls per backend (balanced targets), the server's CPU time and memory (--cpu-pid) and
+// the verdict; --json FILE writes the totals. A command supplies its flags, its setup and one call
+// function (CallFunction).
 
 #include <cstdint>
 #include <functional>
@@ -34,11 +36,17 @@ struct CommonOptions {
   double deadline_ms = 1000;
   double max_p99_ms = 0;
   bool fail_on_errors = false;
-  // After a failed call: 0 = pause 1 ms; > 0 = back off exponentially with full jitter, a random
-  // pause in [0, min(this, 1 ms x 2^failures in a row)] ms (reset by an answered call).
-  double backoff_max_ms = 0;
-  std::string json_path;  // --json: the totals as JSON
-  std::string cpu_pids;   // --cpu-pid: "PID[,PID...]" of the server processes
+  // After the n-th failed call in a row (reset by an answered one), a random pause in
+  // [0, min(backoff_max_ms, backoff_base_ms x 2^(n-1))] ms: exponential backoff with full jitter.
+  // backoff_max_ms 0: a fixed 1 ms pause instead.
+  double backoff_base_ms = 10;
+  double backoff_max_ms = 1000;
+  // false: a call made while the server is down waits for it (gRPC's wait_for_ready) until its
+  // deadline, so a dead server costs one failed call per client and deadline, not thousands.
+  bool fail_fast = false;
+  std::string client = "sync";  // --client: sync | async (LoadRun::async_call)
+  std::string json_path;        // --json: the totals as JSON
+  std::string cpu_pids;         // --cpu-pid: "PID[,PID...]" of the server processes
 };
 
 // Adds the common flags (--address defaults to 127.0.0.1:`default_port`).
@@ -74,6 +82,13 @@ struct Reply {
 // Called from every client thread at once.
 using CallFunction = std::function<grpc::Status(grpc::ClientContext* context, Reply* reply)>;
 
+// The same call with gRPC's callback API: starts it and returns; `done` runs once with its status
+// (on one of gRPC's threads) after *reply is filled when the status is OK. `context` and `reply`
+// stay valid until then.
+using DoneFunction = std::function<void(const grpc::Status& status)>;
+using AsyncCallFunction =
+    std::function<void(grpc::ClientContext* context, Reply* reply, DoneFunction done)>;
+
 // What the client threads add up.
 struct Tally {
   std::mutex mutex;
@@ -82,6 +97,7 @@ struct Tally {
   std::map<std::string, uint64_t> replies;   // by Reply::name
   std::map<std::string, uint64_t> errors;    // by gRPC code
   std::map<std::string, uint64_t> backends;  // calls by peer address (ClientContext::peer)
+  std::vector<std::pair<uint64_t, uint64_t>> per_second;  // answered, failed in each second
   std::string first_error;
   uint64_t calls = 0;
   uint64_t answered = 0;  // calls with status OK
@@ -96,7 +112,8 @@ struct LoadRun {
   std::string what;     // the rest of the header line, e.g. "30 queries"
   std::shared_ptr<grpc::Channel> channel;
   CallFunction call;
-  ExtraVerdict extra_verdict;  // optional
+  AsyncCallFunction async_call;  // optional: what --client async calls
+  ExtraVerdict extra_verdict;    // optional
 };
 
 // Runs the load, prints progress and totals, writes --json; returns the exit status: 0, or 1

@@ -74,6 +74,9 @@ std::optional<int> ParseOptions(const std::vector<std::string>& args, Localizati
                  "' (known: sparse, sparse-pixel, sparse-subpixel, "
                  "dense)");
   }
+  if (o->common.client == "async") {
+    return Usage("--client async: mav-load localization has only a synchronous client");
+  }
   if (o->queue == 0) o->queue = std::clamp<int64_t>(o->common.concurrency, 2, 100);
   return std::nullopt;
 }

@@ -191,6 +191,12 @@ std::vector<v1::QueryCollisionRequest> RandomRequests(const MappingOptions& o,
   return requests;
 }
 
+// A reply's name: COLLISION when a box collides, else UNKNOWN when one touches unknown space, else
+// FREE.
+const char* Verdict(const v1::QueryCollisionResponse& response) {
+  return response.collisions() > 0 ? "COLLISION" : response.unknown() > 0 ? "UNKNOWN" : "FREE";
+}
+
 }  // namespace
 
 int RunMapping(const std::vector<std::string>& args) {
@@ -222,12 +228,19 @@ int RunMapping(const std::vector<std::string>& args) {
     const v1::QueryCollisionRequest& request = (*requests)[next->fetch_add(1) % requests->size()];
     v1::QueryCollisionResponse response;
     grpc::Status status = stub->QueryCollision(context, request, &response);
-    if (status.ok()) {
-      reply->name = response.collisions() > 0 ? "COLLISION"
-                    : response.unknown() > 0  ? "UNKNOWN"
-                                              : "FREE";
-    }
+    if (status.ok()) reply->name = Verdict(response);
     return status;
+  };
+  run.async_call = [stub, requests, next](grpc::ClientContext* context, Reply* reply,
+                                          DoneFunction done) {
+    const v1::QueryCollisionRequest& request = (*requests)[next->fetch_add(1) % requests->size()];
+    auto response = std::make_shared<v1::QueryCollisionResponse>();
+    stub->async()->QueryCollision(
+        context, &request, response.get(),
+        [response, reply, done = std::move(done)](const grpc::Status& status) {
+          if (status.ok()) reply->name = Verdict(*response);
+          done(status);
+        });
   };
   return RunLoad(options.common, run);
 }

@@ -166,6 +166,17 @@ int RunPlanning(const std::vector<std::string>& args) {
     if (status.ok()) reply->name = PlanStatusName(response.status());
     return status;
   };
+  run.async_call = [calls](grpc::ClientContext* context, Reply* reply, DoneFunction done) {
+    const v1::PlanPathRequest& request =
+        calls->requests[calls->next.fetch_add(1) % calls->requests.size()];
+    auto response = std::make_shared<v1::PlanPathResponse>();
+    calls->stub->async()->PlanPath(
+        context, &request, response.get(),
+        [response, reply, done = std::move(done)](const grpc::Status& status) {
+          if (status.ok()) reply->name = PlanStatusName(response->status());
+          done(status);
+        });
+  };
   if (options.require_success) {
     run.extra_verdict = [](const Tally& tally) {
       const auto it = tally.replies.find("SUCCESS");

@@ -61,18 +61,23 @@ def channel_target(address):
                      "(a.b.c.d:port or [v6]:port); name hosts with dns:///host:port")
 
 
-def balanced_options(service):
-    """Channel options of a balanced target: round_robin, retries of UNAVAILABLE calls."""
+def channel_options(service, balanced):
+    """Channel options (as clients/common/channel.h): retries of UNAVAILABLE calls, a reconnect
+    backoff of 100 ms growing to 500 ms (gRPC's: 1 s growing to 120 s), round_robin when
+    balanced."""
     config = {
-        "loadBalancingConfig": [{"round_robin": {}}],
         "methodConfig": [{
             "name": [{"service": service}],
             "retryPolicy": {"maxAttempts": 3, "initialBackoff": "0.01s", "maxBackoff": "0.1s",
                             "backoffMultiplier": 2, "retryableStatusCodes": ["UNAVAILABLE"]},
         }],
     }
-    return [("grpc.lb_policy_name", "round_robin"), ("grpc.enable_retries", 1),
-            ("grpc.service_config", json.dumps(config))]
+    options = [("grpc.enable_retries", 1), ("grpc.initial_reconnect_backoff_ms", 100),
+               ("grpc.min_reconnect_backoff_ms", 100), ("grpc.max_reconnect_backoff_ms", 500)]
+    if balanced:
+        config["loadBalancingConfig"] = [{"round_robin": {}}]
+        options.append(("grpc.lb_policy_name", "round_robin"))
+    return options + [("grpc.service_config", json.dumps(config))]
 
 
 def import_stubs(stubs_dir):
@@ -121,14 +126,19 @@ def main():
                                  waypoints=[vector(common, w) for w in args.via],
                                  limits=pb.SpeedLimits(max_speed_mps=args.max_speed),
                                  sample_dt_s=args.samples)
-    options = balanced_options("mav.v1.Planning") if balanced else None
+    options = channel_options("mav.v1.Planning", balanced)
     with grpc.insecure_channel(target, options=options) as channel:
         stub = pb_grpc.PlanningStub(channel)
         try:
-            reply = stub.PlanPath(request, timeout=args.timeout)
+            # A server that is not up yet (or restarting) is waited for, within the deadline.
+            reply = stub.PlanPath(request, timeout=args.timeout, wait_for_ready=True)
         except grpc.RpcError as error:
+            hint = ""
+            if error.code() == grpc.StatusCode.DEADLINE_EXCEEDED:
+                hint = (f" (no answer within --timeout {args.timeout:g} s: is mav-planning "
+                        f"running at {args.address}?)")
             print(f"plan.py: PlanPath at {args.address} failed: {error.code().name}: "
-                  f"{error.details()}", file=sys.stderr)
+                  f"{error.details()}{hint}", file=sys.stderr)
             return 1
 
     status = pb.PlanStatus.Name(reply.status).replace("PLAN_STATUS_", "")

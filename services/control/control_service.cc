@@ -216,10 +216,13 @@ grpc::Status ControlService::SetGains(grpc::ServerContext* context,
   return grpc::Status::OK;
 }
 
-grpc::Status ControlService::GetState(grpc::ServerContext*, const v1::ControlGetStateRequest*,
-                                      v1::ControlState* response) {
+grpc::ServerUnaryReactor* ControlService::GetState(grpc::CallbackServerContext* context,
+                                                   const v1::ControlGetStateRequest*,
+                                                   v1::ControlState* response) {
   ToProto(core_->GetState(), response);
-  return grpc::Status::OK;
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
 }
 
 grpc::Status ControlService::GetStatus(grpc::ServerContext*, const v1::ControlGetStatusRequest*,

@@ -33,7 +33,7 @@ struct ControlServiceOptions {
 Result<geometry::PolynomialTrajectory> FetchPlan(const v1::PlanRef& plan,
                                                  const Termination& deadline, int64_t timeout_ms);
 
-class ControlService final : public v1::Control::Service {
+class ControlService final : public v1::Control::WithCallbackMethod_GetState<v1::Control::Service> {
  public:
   // `core` (not owned) must outlive the service; `input` (not owned, may be null: no live input,
   // e.g. in tests) is switched on by Configure unless disable_dds_input.
@@ -51,8 +51,11 @@ class ControlService final : public v1::Control::Service {
                              v1::ControlStatus* response) override;
   grpc::Status SetGains(grpc::ServerContext* context, const v1::SetGainsRequest* request,
                         v1::ControlStatus* response) override;
-  grpc::Status GetState(grpc::ServerContext* context, const v1::ControlGetStateRequest* request,
-                        v1::ControlState* response) override;
+  // On gRPC's callback API: answered on the thread that read the call (a copy of the state under
+  // the core's lock), without the sync server's hand-off to a worker thread.
+  grpc::ServerUnaryReactor* GetState(grpc::CallbackServerContext* context,
+                                     const v1::ControlGetStateRequest* request,
+                                     v1::ControlState* response) override;
   grpc::Status GetStatus(grpc::ServerContext* context, const v1::ControlGetStatusRequest* request,
                          v1::ControlStatus* response) override;
 

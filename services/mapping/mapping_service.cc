@@ -162,9 +162,16 @@ grpc::Status MappingService::GetOccupancy(grpc::ServerContext* context,
   return StreamOccupancy(context, map->grid, *format, *chunk_bytes, writer);
 }
 
-grpc::Status MappingService::QueryCollision(grpc::ServerContext*,
-                                            const v1::QueryCollisionRequest* request,
-                                            v1::QueryCollisionResponse* response) {
+grpc::ServerUnaryReactor* MappingService::QueryCollision(grpc::CallbackServerContext* context,
+                                                         const v1::QueryCollisionRequest* request,
+                                                         v1::QueryCollisionResponse* response) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  reactor->Finish(AnswerQueryCollision(request, response));
+  return reactor;
+}
+
+grpc::Status MappingService::AnswerQueryCollision(const v1::QueryCollisionRequest* request,
+                                                  v1::QueryCollisionResponse* response) {
   Result<std::optional<MappingMethod>> method = MethodFromProto(request->method(), "method", true);
   if (!method.ok()) return ToGrpcStatus(method.status());
   if (request->boxes_size() == 0) {

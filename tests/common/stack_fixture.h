@@ -54,6 +54,22 @@ class Stack {
     return target;
   }
 
+  // Kills `binary` (SIGKILL, if it still runs) and starts it again on the same port with `extra`;
+  // returns its target, or "" as Start does.
+  std::string Restart(const std::string& binary, const std::string& health_name,
+                      const std::vector<std::string>& extra = {}) {
+    const std::string target = targets_.at(binary);
+    children_.erase(binary);  // ~Child: SIGKILL and reap
+    const std::string port = target.substr(target.rfind(':') + 1);
+    std::vector<std::string> argv = {mav::testing::BinaryDir() + "/bin/" + binary, "--port", port,
+                                     "--dds-domain", std::to_string(domain_)};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    auto child = std::make_unique<Child>(argv, Log(binary) + ".restarted");
+    if (!child->running()) return "";
+    children_[binary] = std::move(child);
+    return WaitServing(target, health_name) ? target : "";
+  }
+
   const std::string& Target(const std::string& binary) { return targets_[binary]; }
   std::shared_ptr<grpc::Channel> Channel(const std::string& binary) {
     return grpc::CreateChannel(Target(binary), grpc::InsecureChannelCredentials());

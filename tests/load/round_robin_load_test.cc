@@ -3,7 +3,9 @@
 // channel.h), Control.GetState back to back for 3 s with 3 clients: the calls spread evenly
 // (each replica within 10 % of a third, read from --json's per_backend), none fails; and with one
 // replica killed (SIGKILL) a second into a 4 s run, no call is lost but those that were in flight
-// on it (at most one per client; the retry policy usually saves them too).
+// on it (at most one per client; the retry policy usually saves them too). Both with mav-load's
+// synchronous client threads and with its asynchronous client (--client async: gRPC's callback
+// API, refused calls wait on its pause line).
 
 #include <gtest/gtest.h>
 
@@ -26,7 +28,7 @@ namespace {
 
 constexpr int kReplicas = 3;
 
-class RoundRobinLoadTest : public ::testing::Test {
+class RoundRobinLoadTest : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
     for (int r = 0; r < kReplicas; ++r) {
@@ -50,7 +52,8 @@ class RoundRobinLoadTest : public ::testing::Test {
     const std::string log_path = dir + name + ".log", json_path = dir + name + ".json";
     test_support::Child load(
         {mav::testing::BinaryDir() + "/bin/mav-load", "control", "--address", BalancedTarget(),
-         "--concurrency", "3", "--duration", std::to_string(duration_s), "--json", json_path},
+         "--concurrency", "3", "--duration", std::to_string(duration_s), "--client", GetParam(),
+         "--json", json_path},
         log_path);
     if (on_started_) on_started_();
     const std::optional<int> rc = load.Wait(std::chrono::seconds(60));
@@ -84,9 +87,9 @@ class RoundRobinLoadTest : public ::testing::Test {
   std::function<void()> on_started_;
 };
 
-TEST_F(RoundRobinLoadTest, CallsSpreadEvenlyOverTheReplicas) {
+TEST_P(RoundRobinLoadTest, CallsSpreadEvenlyOverTheReplicas) {
   std::string log, json;
-  ASSERT_EQ(RunLoad("round_robin_load_test", 3, &log, &json), 0) << log;
+  ASSERT_EQ(RunLoad("round_robin_load_test_" + GetParam(), 3, &log, &json), 0) << log;
   std::cout << log;
   EXPECT_EQ(ErrorCount(json), 0) << json;
   const std::map<std::string, double> calls = PerBackend(json);
@@ -101,7 +104,7 @@ TEST_F(RoundRobinLoadTest, CallsSpreadEvenlyOverTheReplicas) {
   }
 }
 
-TEST_F(RoundRobinLoadTest, AKilledReplicaLosesOnlyTheCallsInFlightOnIt) {
+TEST_P(RoundRobinLoadTest, AKilledReplicaLosesOnlyTheCallsInFlightOnIt) {
   std::thread killer;
   on_started_ = [&] {
     killer = std::thread([this] {
@@ -110,7 +113,7 @@ TEST_F(RoundRobinLoadTest, AKilledReplicaLosesOnlyTheCallsInFlightOnIt) {
     });
   };
   std::string log, json;
-  const int rc = RunLoad("round_robin_kill_load_test", 4, &log, &json);
+  const int rc = RunLoad("round_robin_kill_load_test_" + GetParam(), 4, &log, &json);
   killer.join();
   std::cout << log;
   ASSERT_EQ(rc, 0) << log;
@@ -119,6 +122,26 @@ TEST_F(RoundRobinLoadTest, AKilledReplicaLosesOnlyTheCallsInFlightOnIt) {
   for (const std::string& target : {targets_[0], targets_[2]}) {
     ASSERT_EQ(calls.count(target), 1u) << target << "\n" << json;
     EXPECT_GT(calls.at(target), calls.at(targets_[1])) << json;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Clients, RoundRobinLoadTest, ::testing::Values("sync", "async"),
+                         [](const ::testing::TestParamInfo<std::string>& info) {
+                           return info.param;
+                         });
+
+// The flag's own errors, before anything connects: exit 2 naming --client.
+TEST(MavLoadClientFlag, RefusesAnUnknownModeAndAsyncLocalization) {
+  const std::string log = mav::testing::BinaryDir() + "/Testing/mav_load_client_flag.log";
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"control", "--client", "threads"},
+        std::vector<std::string>{"localization", "--client", "async"}}) {
+    std::vector<std::string> argv = {mav::testing::BinaryDir() + "/bin/mav-load"};
+    argv.insert(argv.end(), args.begin(), args.end());
+    test_support::Child load(argv, log);
+    EXPECT_EQ(load.Wait(std::chrono::seconds(30)).value_or(-1), 2) << args[0];
+    const std::string text = ReadFileToString(log).ok() ? *ReadFileToString(log) : "";
+    EXPECT_NE(text.find("mav-load: --client"), std::string::npos) << text;
   }
 }
 

@@ -52,8 +52,9 @@ void AddServerFlags(FlagParser* flags, ServerOptions* options, const std::string
                    "IP address to bind the gRPC server to (0.0.0.0 exposes it)");
   flags->AddInt("port", &options->port, "TCP port of the gRPC server (env " + port_env + ")");
   flags->AddInt("max-threads", &options->max_threads,
-                "threads gRPC runs calls on; a call finding all busy gets RESOURCE_EXHAUSTED "
-                "(0 = no bound)");
+                "threads gRPC runs synchronous calls on; a call finding all busy gets "
+                "RESOURCE_EXHAUSTED (0 = no bound; the callback methods, Control.GetState and "
+                "Mapping.QueryCollision, run on gRPC's own threads and are not bounded)");
 }
 
 Status ApplyPortEnv(const FlagParser& flags, const std::string& port_env, ServerOptions* options) {

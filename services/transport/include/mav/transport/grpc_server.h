@@ -36,8 +36,9 @@ struct ServerOptions {
   int64_t shutdown_grace_ms = 5000;
   // Threads gRPC may run the server's calls on (its pollers included; grpc::ResourceQuota). A
   // call that finds every thread busy is answered RESOURCE_EXHAUSTED at once instead of waiting
-  // for one, which bounds both the threads (memory) and the queueing under overload.
-  // 0 = gRPC's default (no bound).
+  // for one, which bounds both the threads (memory) and the queueing under overload. Methods on
+  // gRPC's callback API (Control.GetState, Mapping.QueryCollision) do not take such a thread and
+  // are not bounded by it. 0 = gRPC's default (no bound).
   int64_t max_threads = 0;
 
   bool IsValid(std::string* why) const;

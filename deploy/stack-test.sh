@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The stack in containers, end to end (docs/deploy.md). One command on a fresh Debian 12 machine:
 #
-#   deploy/stack-test.sh [--prebuilt] [--smoke] [--load-seconds S] [--out DIR]
+#   deploy/stack-test.sh [--prebuilt] [--smoke] [--no-dds-security] [--load-seconds S] [--out DIR]
 #
 #  1. installs podman, runc, docker-compose and debootstrap when missing and writes the podman
 #     settings these machines need (/etc/containers/containers.conf.d/50-mav-stack.conf);
@@ -10,8 +10,12 @@
 #     has none (no registry is reachable here);
 #  3. builds the image mav-stack:latest from the sources (deploy/Dockerfile), or around the host's
 #     executables with --prebuilt (deploy/Dockerfile.prebuilt); checks its size and libraries;
-#  4. docker-compose up -d, then waits for every service's health check;
-#  5. flies missions/room_survey.yaml from the compose mission client: it must complete;
+#  4. makes the DDS Security certificates (deploy/dds-security/make-certs.sh: an identity per
+#     program, ENCRYPT), docker-compose up -d with deploy/compose.security.yml (each service on
+#     its own identity), then waits for every service's health check;
+#  5. flies missions/room_survey.yaml from the compose mission client: it must complete; while it
+#     flies, a `mavctl listen` from the host without credentials must receive no stereo frame,
+#     and one with mavctl's identity must;
 #  6. SIGKILLs mav-localization's process; podman's restart policy must bring it back healthy,
 #     and a second mission (the host's mavctl) must complete;
 #  7. load tests: mav-load against every service, in its container and as a bare process
@@ -23,6 +27,7 @@
 #
 # --prebuilt     pack the executables of build/ instead of compiling in the image (CI)
 # --smoke        stages 1-6 and 9 only (implies --prebuilt): what CI runs
+# --no-dds-security  the data plane without DDS Security (docker-compose.yml alone)
 # --load-seconds seconds per load run (default 20)
 # --out DIR      reports and logs (default out/stack-test)
 # Environment: MAV_SIM_PORT, MAV_LOCALIZATION_PORT, MAV_MAPPING_PORT, MAV_PLANNING_PORT,
@@ -37,6 +42,7 @@ cd "$repo"
 
 prebuilt=0
 smoke=0
+dds_security=1
 load_seconds=20
 out="$repo/out/stack-test"
 while [[ $# -gt 0 ]]; do
@@ -45,7 +51,8 @@ while [[ $# -gt 0 ]]; do
     --smoke) smoke=1; prebuilt=1; shift ;;
     --load-seconds) load_seconds="${2:?--load-seconds needs a value}"; shift 2 ;;
     --out) out="${2:?--out needs a value}"; shift 2 ;;
-    -h|--help) sed -n '2,33p' "$0"; exit 0 ;;
+    --no-dds-security) dds_security=0; shift ;;
+    -h|--help) sed -n '2,38p' "$0"; exit 0 ;;
     *) echo "stack-test.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
@@ -68,7 +75,10 @@ project="${MAV_STACK_PROJECT:-mavstack}"
   { echo "stack-test.sh: MAV_STACK_PROJECT: '$project' is not a compose project name ([a-z0-9_-])" >&2; exit 2; }
 image=mav-stack:latest
 bin="$repo/build/bin"
-compose_files=(-f "$repo/docker-compose.yml" -f "$repo/deploy/compose.replicas.yml")
+# The stack's files (with DDS Security unless --no-dds-security), and the replicas' on top.
+base_files=(-f "$repo/docker-compose.yml")
+[[ $dds_security -eq 1 ]] && base_files+=(-f "$repo/deploy/compose.security.yml")
+compose_files=("${base_files[@]}" -f "$repo/deploy/compose.replicas.yml")
 mkdir -p "$out/logs" "$out/load"
 work="$(mktemp -d /tmp/mav-stack-test.XXXXXX)"
 
@@ -159,7 +169,7 @@ trap 'exit 130' INT TERM
 begin "1 podman, runc, docker-compose, debootstrap"
 need=()
 for tool in podman:podman runc:runc docker-compose:docker-compose debootstrap:debootstrap \
-            ss:iproute2 python3:python3; do
+            ss:iproute2 python3:python3 openssl:openssl; do
   command -v "${tool%%:*}" > /dev/null || need+=("${tool#*:}")
 done
 if [[ ${#need[@]} -gt 0 ]]; then
@@ -277,10 +287,19 @@ services=(simulator localization mapping planning control)
 begin "4 docker-compose up, every service healthy"
 check_ports "$MAV_SIM_PORT" "$MAV_LOCALIZATION_PORT" "$MAV_MAPPING_PORT" "$MAV_PLANNING_PORT" \
             "$MAV_CONTROL_PORT" "$MAV_PLANNING_PORT_2" "$MAV_PLANNING_PORT_3"
-docker-compose -p "$project" -f docker-compose.yml up -d --no-build "${services[@]}" \
+security_note="DDS Security off"
+if [[ $dds_security -eq 1 ]]; then
+  export MAV_DDS_SECURITY_DIR="$work/dds-security"
+  "$repo/deploy/dds-security/make-certs.sh" "$MAV_DDS_SECURITY_DIR" > "$out/logs/make-certs.log" 2>&1 ||
+    fail "deploy/dds-security/make-certs.sh failed (log: $out/logs/make-certs.log)"
+  # The containers run as uid 10001 and must read their own key; the CA keys stay root's.
+  chown -R 10001 "$MAV_DDS_SECURITY_DIR"/mav-* "$MAV_DDS_SECURITY_DIR"/mavctl
+  security_note="DDS Security on (an identity per service, ENCRYPT)"
+fi
+docker-compose -p "$project" "${base_files[@]}" up -d --no-build "${services[@]}" \
   > "$out/logs/compose-up.log" 2>&1 || fail "docker-compose up failed (log: $out/logs/compose-up.log)"
 for s in "${services[@]}"; do wait_healthy "$s" 60; done
-end "${#services[@]} services SERVING, DDS domain $MAV_DDS_DOMAIN"
+end "${#services[@]} services SERVING, DDS domain $MAV_DDS_DOMAIN, $security_note"
 
 # mission_summary JSON: the mission report's outcome, goals, ATE, collisions and speed, as one line.
 mission_summary() {
@@ -295,11 +314,33 @@ EOF
 }
 
 begin "5 room mission from the compose mission client"
-docker-compose -p "$project" -f docker-compose.yml run --rm mission > "$out/logs/mission-1.log" 2>&1 ||
+listen_pids=()
+if [[ $dds_security -eq 1 ]]; then
+  # Two listeners on the host while the mission flies: without credentials (must get nothing)
+  # and with mavctl's identity (must get frames).
+  listen=("$bin/mavctl" listen --topic stereo --frames 20 --timeout 60 --dds-domain "$MAV_DDS_DOMAIN")
+  "${listen[@]}" > "$out/logs/listen-open.log" 2>&1 &
+  listen_pids+=($!)
+  "${listen[@]}" --dds-security "$MAV_DDS_SECURITY_DIR/mavctl" > "$out/logs/listen-mavctl.log" 2>&1 &
+  listen_pids+=($!)
+  bare_pids+=("${listen_pids[@]}")  # the teardown stops them if the mission fails
+fi
+docker-compose -p "$project" "${base_files[@]}" run --rm mission > "$out/logs/mission-1.log" 2>&1 ||
   { tail -20 "$out/logs/mission-1.log" >&2; fail "the first mission did not complete (log: $out/logs/mission-1.log)"; }
 volume_dir="$(podman volume inspect -f '{{.Mountpoint}}' "${project}_mav-data")"
 cp "$volume_dir/mission.json" "$out/mission-1.json"
-end "$(mission_summary "$out/mission-1.json")"
+listen_note=""
+if [[ $dds_security -eq 1 ]]; then
+  wait "${listen_pids[@]}" || true
+  open_frames="$(grep -oE '^stereo: +[0-9]+' "$out/logs/listen-open.log" | grep -oE '[0-9]+$' || echo "?")"
+  mavctl_frames="$(grep -oE '^stereo: +[0-9]+' "$out/logs/listen-mavctl.log" | grep -oE '[0-9]+$' || echo "?")"
+  [[ "$open_frames" == 0 ]] ||
+    fail "a listener without DDS credentials received '$open_frames' stereo frames (log: $out/logs/listen-open.log)"
+  [[ "$mavctl_frames" =~ ^[0-9]+$ && "$mavctl_frames" -gt 0 ]] ||
+    fail "the listener with mavctl's identity received no stereo frame (log: $out/logs/listen-mavctl.log)"
+  listen_note="; stereo frames to a listener without credentials: 0, with mavctl's identity: $mavctl_frames"
+fi
+end "$(mission_summary "$out/mission-1.json")$listen_note"
 
 begin "6 SIGKILL mav-localization, restart, a second mission"
 ctr="${project}_localization_1"

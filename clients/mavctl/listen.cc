@@ -203,6 +203,7 @@ ListenReport MakeReport(const Received& received) {
     report.latency_mean_ms = sum / static_cast<double>(latencies_ms.size());
     report.latency_p50_ms = Percentile(latencies_ms, 0.5);
     report.latency_p95_ms = Percentile(latencies_ms, 0.95);
+    report.latency_p99_ms = Percentile(latencies_ms, 0.99);
     report.latency_max_ms = Percentile(latencies_ms, 1.0);
   }
   if (stereo.count >= 2 && stereo.last_receive_ns > stereo.first_receive_ns) {
@@ -305,7 +306,8 @@ void PrintReport(const ListenOptions& options, const ListenReport& report, std::
         << report.throughput_mb_s << " MB/s\n";
     out << "              latency (publish -> receive) mean " << std::setprecision(3)
         << report.latency_mean_ms << " ms, p50 " << report.latency_p50_ms << " ms, p95 "
-        << report.latency_p95_ms << " ms, max " << report.latency_max_ms << " ms\n";
+        << report.latency_p95_ms << " ms, p99 " << report.latency_p99_ms << " ms, max "
+        << report.latency_max_ms << " ms\n";
   }
   if (want_imu) {
     out << "imu:          " << report.imu_samples << " samples, missing " << report.imu_missing

@@ -42,6 +42,7 @@ struct ListenReport {
   double latency_mean_ms = 0.0;
   double latency_p50_ms = 0.0;
   double latency_p95_ms = 0.0;
+  double latency_p99_ms = 0.0;
   double latency_max_ms = 0.0;
   double throughput_mb_s = 0.0;
   int64_t imu_samples = 0;

@@ -1,11 +1,17 @@
 #include "mav/transport/dds.h"
 
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <map>
 #include <mutex>
 #include <thread>
 
+#include "mav/common/log.h"
 #include "mav/common/parse.h"
 
 namespace mav::transport {
@@ -50,6 +56,9 @@ Status DdsStatus(dds_return_t ret, const std::string& what) {
     case DDS_RETCODE_NOT_ENABLED:
     case DDS_RETCODE_ILLEGAL_OPERATION:
       return Status::FailedPrecondition(message);
+    case DDS_RETCODE_NOT_ALLOWED_BY_SECURITY:
+      return Status::FailedPrecondition(
+          message + " (the permissions of this DDS Security identity do not grant it)");
     case DDS_RETCODE_TIMEOUT:
     case DDS_RETCODE_OUT_OF_RESOURCES:
     case DDS_RETCODE_ALREADY_DELETED:
@@ -73,14 +82,78 @@ bool DdsOptions::IsValid(std::string* why) const {
 }
 
 std::string DdsOptions::ResolvedConfig() const {
+  std::string base;
   if (!config.empty()) {
-    if (config.front() == '<' || config.rfind("file://", 0) == 0) return config;
-    return "file://" + config;
+    base = config.front() == '<' || config.rfind("file://", 0) == 0 ? config : "file://" + config;
+  } else if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri != nullptr && *uri != '\0') {
+    base = uri;
+  } else {
+    base = kLoopbackDdsConfig;
   }
-  if (const char* uri = std::getenv("CYCLONEDDS_URI"); uri != nullptr && *uri != '\0') {
-    return uri;
+  // Cyclone reads a comma-separated list of files and XML fragments, later ones adding to (and
+  // overriding) earlier ones.
+  return security_dir.empty() ? base : base + "," + SecurityConfig(security_dir);
+}
+
+std::string SecurityConfig(const std::string& dir) {
+  auto file = [&dir](const char* name) { return "file://" + dir + "/" + name; };
+  // No <Library> elements: Cyclone's default plugin names (dds_security_auth, _ac, _crypto)
+  // with their init/finalize functions, which Debian's libddsc finds in its own plugin
+  // directory (/usr/lib/<arch>/libddsc0debian) whatever the architecture.
+  return "<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\"><Security>"
+         "<Authentication>"
+         "<IdentityCA>" +
+         file("identity_ca.pem") +
+         "</IdentityCA>"
+         "<IdentityCertificate>" +
+         file("cert.pem") +
+         "</IdentityCertificate>"
+         "<PrivateKey>" +
+         file("key.pem") +
+         "</PrivateKey>"
+         "</Authentication>"
+         "<AccessControl>"
+         "<PermissionsCA>" +
+         file("permissions_ca.pem") +
+         "</PermissionsCA>"
+         "<Governance>" +
+         file("governance.p7s") +
+         "</Governance>"
+         "<Permissions>" +
+         file("permissions.p7s") +
+         "</Permissions>"
+         "</AccessControl>"
+         "</Security></Domain></CycloneDDS>";
+}
+
+Result<std::string> CheckSecurityDir(const std::string& dir, const std::string& what) {
+  if (dir.empty()) return Status::InvalidArgument(what + ": empty directory");
+  std::error_code error;
+  const std::filesystem::path absolute = std::filesystem::absolute(dir, error);
+  if (error) return Status::InvalidArgument(what + ": " + dir + ": " + error.message());
+  std::string path = absolute.lexically_normal().string();
+  while (path.size() > 1 && path.back() == '/') path.pop_back();
+  if (path.find_first_of(",\"'<>&") != std::string::npos) {
+    return Status::InvalidArgument(what + ": " + path +
+                                   ": a comma, quote, '<', '>' or '&' in the path cannot go into "
+                                   "Cyclone's configuration; move the directory");
   }
-  return kLoopbackDdsConfig;
+  if (!std::filesystem::is_directory(path, error)) {
+    return Status::InvalidArgument(what + ": " + path +
+                                   ": not a directory (make one with deploy/dds-security/"
+                                   "make-certs.sh OUT; give OUT/<program>)");
+  }
+  for (const char* name : kDdsSecurityFiles) {
+    const std::string file = path + "/" + name;
+    if (::access(file.c_str(), R_OK) != 0) {
+      return Status::InvalidArgument(what + ": " + file + ": " + std::strerror(errno) +
+                                     " (an identity directory of deploy/dds-security/"
+                                     "make-certs.sh has " +
+                                     "identity_ca.pem, cert.pem, key.pem, permissions_ca.pem, "
+                                     "governance.p7s and permissions.p7s)");
+    }
+  }
+  return path;
 }
 
 void AddDdsFlags(FlagParser* flags, DdsOptions* options) {
@@ -88,6 +161,10 @@ void AddDdsFlags(FlagParser* flags, DdsOptions* options) {
   flags->AddString("dds-config", &options->config,
                    "Cyclone DDS config: XML, file://PATH or PATH (default: env CYCLONEDDS_URI, "
                    "else the built-in loopback config = deploy/cyclonedds.xml)");
+  flags->AddString("dds-security", &options->security_dir,
+                   "DDS Security identity directory, OUT/<program> of "
+                   "deploy/dds-security/make-certs.sh (env MAV_DDS_SECURITY; default: none, "
+                   "the data plane unauthenticated)");
 }
 
 Status ApplyDdsEnv(const FlagParser& flags, DdsOptions* options) {
@@ -96,6 +173,16 @@ Status ApplyDdsEnv(const FlagParser& flags, DdsOptions* options) {
       MAV_ASSIGN_OR_RETURN(options->domain,
                            ParseInt64(text, "environment variable MAV_DDS_DOMAIN"));
     }
+  }
+  std::string what = "--dds-security";
+  if (!flags.WasSet("dds-security")) {
+    if (const char* dir = std::getenv("MAV_DDS_SECURITY"); dir != nullptr && *dir != '\0') {
+      options->security_dir = dir;
+      what = "environment variable MAV_DDS_SECURITY";
+    }
+  }
+  if (!options->security_dir.empty()) {
+    MAV_ASSIGN_OR_RETURN(options->security_dir, CheckSecurityDir(options->security_dir, what));
   }
   std::string why;
   if (!options->IsValid(&why)) return Status::InvalidArgument(why);
@@ -201,6 +288,10 @@ Result<Participant> Participant::Create(const DdsOptions& options) {
                                    ") with config '" + config.substr(0, 80) +
                                    "' (see the Cyclone messages above)");
     }
+    if (!options.security_dir.empty()) {
+      MAV_LOG(kInfo) << "DDS domain " << options.domain << ": DDS Security on, identity "
+                     << options.security_dir;
+    }
     domain = std::make_shared<DomainRef>();
     domain->handle = handle;
     domains[options.domain] = domain;
@@ -209,7 +300,12 @@ Result<Participant> Participant::Create(const DdsOptions& options) {
       dds_create_participant(static_cast<dds_domainid_t>(options.domain), nullptr, nullptr);
   if (participant < 0) {
     return DdsStatus(participant,
-                     "dds_create_participant(domain " + std::to_string(options.domain) + ")");
+                     "dds_create_participant(domain " + std::to_string(options.domain) + ")" +
+                         (options.security_dir.empty()
+                              ? std::string()
+                              : " with the DDS Security identity " + options.security_dir +
+                                    " (refused by the security plugins: Cyclone's reason, e.g. "
+                                    "an expired certificate, is printed above)"));
   }
   return Participant(std::move(domain), participant, options.domain);
 }

@@ -67,14 +67,36 @@ struct DdsOptions {
   // Cyclone configuration: an XML string, "file://PATH", or a plain PATH (read as file://).
   // Empty: the CYCLONEDDS_URI environment variable if set, else LoopbackDdsConfig().
   std::string config;
+  // DDS Security (OMG DDS-Security 1.1 with the plugins Debian's Cyclone DDS ships): an identity
+  // directory made by deploy/dds-security/make-certs.sh OUT (OUT/<program>: cert.pem, key.pem,
+  // identity_ca.pem, permissions_ca.pem, governance.p7s, permissions.p7s), as an absolute path.
+  // Empty: no security (every participant on the domain is trusted).
+  std::string security_dir;
 
   bool IsValid(std::string* why) const;
-  // The configuration string handed to dds_create_domain, following the rules above.
+  // The configuration string handed to dds_create_domain, following the rules above; with a
+  // security_dir, followed by the Security element naming its files (SecurityConfig).
   std::string ResolvedConfig() const;
 };
 
-// Registers --dds-domain and --dds-config. Call ApplyDdsEnv() after parsing: the domain falls
-// back to the environment variable MAV_DDS_DOMAIN when --dds-domain was not given.
+// The files of a DDS Security identity directory, in the order SecurityConfig names them.
+inline constexpr const char* kDdsSecurityFiles[] = {"identity_ca.pem", "cert.pem",
+                                                    "key.pem",         "permissions_ca.pem",
+                                                    "governance.p7s",  "permissions.p7s"};
+
+// The Cyclone configuration fragment that turns DDS Security on with the identity in `dir`
+// (absolute, checked by CheckSecurityDir): authentication, access control and the cryptography
+// the governance document asks for. Merged after the main configuration.
+std::string SecurityConfig(const std::string& dir);
+
+// `dir` made absolute, after checking that every file of kDdsSecurityFiles is there and
+// readable: InvalidArgument "<what>: DIR/cert.pem: ..." naming the first that is not, or a path
+// Cyclone's configuration list cannot carry (a comma, quote, '<', '>' or '&').
+Result<std::string> CheckSecurityDir(const std::string& dir, const std::string& what);
+
+// Registers --dds-domain, --dds-config and --dds-security. Call ApplyDdsEnv() after parsing: the
+// domain falls back to the environment variable MAV_DDS_DOMAIN when --dds-domain was not given,
+// the security directory to MAV_DDS_SECURITY, and that directory is checked (CheckSecurityDir).
 void AddDdsFlags(FlagParser* flags, DdsOptions* options);
 Status ApplyDdsEnv(const FlagParser& flags, DdsOptions* options);
 

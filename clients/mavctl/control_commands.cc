@@ -396,7 +396,11 @@ void PrintFlightStatus(const v1::FlightStatus& s) {
             << s.ground_truth_published() << " ground truth\n"
             << "commands:   " << s.commands_received() << " received from " << s.actuator_writers()
             << " writer(s), " << s.commands_rejected() << " rejected, " << s.stale_steps()
-            << " stale steps (motors off)\n"
+            << " stale steps\n"
+            << "failsafe:   "
+            << (s.failsafe_active() ? "ACTIVE (no valid command: level, descending)" : "off")
+            << ", engaged " << s.failsafe_engagements() << " time(s), " << std::setprecision(1)
+            << s.failsafe_s() << " s flown by it\n"
             << std::setprecision(3) << "vehicle:    " << Vec(s.position()) << " m"
             << (s.lifted_off() ? ", lifted off" : ", on the ground") << ", goal " << s.goal_index()
             << ", " << s.collisions_size() << " collision(s)\n";

@@ -308,6 +308,9 @@ void ToProto(const FlightStatus& status, v1::FlightStatus* out) {
   out->set_commands_received(status.commands_received);
   out->set_commands_rejected(status.commands_rejected);
   out->set_stale_steps(status.stale_steps);
+  out->set_failsafe_active(status.failsafe_active);
+  out->set_failsafe_engagements(status.failsafe_engagements);
+  out->set_failsafe_s(status.failsafe_s);
   out->set_goal_index(status.goal_index);
   for (const sim::Collision& c : status.collisions) {
     v1::FlightCollision* o = out->add_collisions();

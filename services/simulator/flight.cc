@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "mav/common/check.h"
 #include "mav/common/log.h"
 #include "mav/common/pacing.h"
 #include "mav/common/time.h"
+#include "mav/sim/failsafe.h"
 #include "mav/sim/scenario_source.h"
 #include "services/common/proto_codec.h"
 
@@ -87,11 +89,15 @@ bool FlightConfig::OptionsValid(std::string* why) const {
 
 // What the worker keeps of a loaded flight.
 struct Flight::Loaded {
-  Loaded(sim::FlightSimulation s, FlightConfig c) : sim(std::move(s)), config(std::move(c)) {}
+  Loaded(sim::FlightSimulation s, FlightConfig c)
+      : sim(std::move(s)),
+        config(std::move(c)),
+        failsafe(*sim::DescentFailsafe::Create(config.simulation.vehicle)) {}  // checked at Load
   sim::FlightSimulation sim;
   FlightConfig config;
-  const sim::FlightStep* out = nullptr;        // the current step (inside `sim`)
-  std::vector<std::string> frame_ids;          // per pose sensor
+  sim::DescentFailsafe failsafe;         // real time: flies the vehicle while commands are stale
+  const sim::FlightStep* out = nullptr;  // the current step (inside `sim`)
+  std::vector<std::string> frame_ids;    // per pose sensor
   std::vector<eval::FlightTraceSample> trace;  // one per step, for the score
   bool published = false;                      // the current step's readings are out
   uint64_t goal_pause_step = std::numeric_limits<uint64_t>::max();
@@ -160,6 +166,9 @@ Status Flight::Load(const FlightConfig& config, std::shared_ptr<const sim::Colli
   state_ = FlightState::kLoaded;
   steps_ = imu_published_ = poses_published_ = gt_published_ = 0;
   commands_received_ = commands_rejected_ = stale_steps_ = 0;
+  failsafe_active_ = false;
+  failsafe_engagements_ = 0;
+  failsafe_ns_ = 0;
   t_ns_ = loaded_->sim.t_ns();
   goal_index_ = -1;
   collisions_.clear();
@@ -269,6 +278,9 @@ FlightStatus Flight::StatusLocked() const {
   s.commands_received = commands_received_;
   s.commands_rejected = commands_rejected_;
   s.stale_steps = stale_steps_;
+  s.failsafe_active = failsafe_active_;
+  s.failsafe_engagements = failsafe_engagements_;
+  s.failsafe_s = NsToSeconds(failsafe_ns_);
   s.goal_index = goal_index_;
   s.collisions = collisions_;
   s.collisions_total = collisions_total_;
@@ -438,12 +450,32 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
       loaded->latest_command = *command;
     }
   }
-  if (!loaded->latest || t_ns - loaded->latest->t_ns > SecondsToNs(config.command_stale_s)) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++stale_steps_;
-    return sim::RotorVector::Zero(rotor_count);
+  const bool stale =
+      !loaded->latest || t_ns - loaded->latest->t_ns > SecondsToNs(config.command_stale_s);
+  const sim::MulticopterState& vehicle = loaded->sim.vehicle().state();
+  std::lock_guard<std::mutex> lock(mutex_);
+  const bool failsafe = stale && !vehicle.on_ground;
+  if (failsafe != failsafe_active_) {
+    if (failsafe) {
+      ++failsafe_engagements_;
+      char text[160];
+      std::snprintf(text, sizeof(text),
+                    "t %.2f s: no valid actuator command for %.2f s at %.2f m: failsafe: level, "
+                    "descending at %.2f m/s, motors off on the ground",
+                    NsToSeconds(t_ns), config.command_stale_s, vehicle.p_world.z(),
+                    loaded->failsafe.options().descent_mps);
+      MAV_LOG(kWarning) << text;
+    } else {
+      MAV_LOG(kInfo) << "t " << NsToSeconds(t_ns) << " s: failsafe off ("
+                     << (stale ? "landed" : "valid commands again") << ")";
+    }
+    failsafe_active_ = failsafe;
   }
-  return loaded->latest_command;
+  if (!stale) return loaded->latest_command;
+  ++stale_steps_;
+  if (!failsafe) return sim::RotorVector::Zero(rotor_count);
+  failsafe_ns_ += loaded->sim.step_ns();
+  return loaded->failsafe.Command(vehicle);
 }
 
 void Flight::FinishLocked(Loaded* loaded) {

@@ -8,7 +8,8 @@
 //            lock-step: wait for the command stamped t_k (bounded: lockstep_timeout_s pauses the
 //            flight with a last_error naming the step, never a hang)
 //            real time: sleep until t_{k+1} is due, take the newest command (none, or older than
-//            command_stale_s of simulated time: motors off)
+//            command_stale_s of simulated time: the vehicle's own failsafe flies it, see
+//            mav/sim/failsafe.h: level, 0.4 m/s down, motors off on the ground)
 //            FlightSimulation::Step(command) -> step k+1
 //   end:     FINISHED, scored with eval::ScoreFlightTask (the contest's scripts) on the truth.
 // Lock-step waits (at most lockstep_timeout_s) before the very first step until a controller is
@@ -105,8 +106,8 @@ struct FlightConfig {
   bool lockstep = false;
   double real_time_factor = 1.0;    // real time: simulated s per wall s, [0.01, 100]
   double lockstep_timeout_s = 2.0;  // lock-step: wait per step before pausing, (0, 600]
-  // Real time: a command older than this (simulated time) is stale: motors off
-  // (docs/contracts.md: 100 ms), (0, 10].
+  // Real time: a command older than this (simulated time) is stale: the vehicle's failsafe
+  // takes over (docs/contracts.md: 100 ms), (0, 10].
   double command_stale_s = 0.1;
   sim::FlightSimulationOptions simulation;
 
@@ -162,6 +163,9 @@ struct FlightStatus {
   uint64_t frames_published = 0;
   RuntimeStats render_ms;
   uint32_t stereo_readers = 0;
+  bool failsafe_active = false;
+  uint64_t failsafe_engagements = 0;
+  double failsafe_s = 0;
 };
 
 class Flight {
@@ -222,6 +226,9 @@ class Flight {
   std::shared_ptr<Loaded> loaded_;
   uint64_t steps_ = 0, imu_published_ = 0, poses_published_ = 0, gt_published_ = 0;
   uint64_t commands_received_ = 0, commands_rejected_ = 0, stale_steps_ = 0;
+  bool failsafe_active_ = false;
+  uint64_t failsafe_engagements_ = 0;
+  int64_t failsafe_ns_ = 0;  // simulated time flown by the failsafe
   int64_t t_ns_ = 0;
   int goal_index_ = -1;
   std::vector<sim::Collision> collisions_;

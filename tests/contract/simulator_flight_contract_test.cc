@@ -273,6 +273,24 @@ class SimulatorFlightContractTest : public ::testing::Test {
     ExpectInvalidArgument(status, field);
   }
 
+  // The fake answers every IMU sample with the paper controller flying `task`'s mission.
+  void FlyWithTheAutopilot(const std::string& task) {
+    Result<dataset::FlightTask> loaded = sim::BuiltinFlightTask(task);
+    ASSERT_TRUE(loaded.ok());
+    task_ = std::make_unique<dataset::FlightTask>(*loaded);
+    Result<control::Autopilot> ap = control::Autopilot::Create(
+        eval::AutopilotOptionsForTask(*task_, control::ControllerType::kPaper));
+    ASSERT_TRUE(ap.ok());
+    autopilot_ = std::make_unique<control::Autopilot>(std::move(*ap));
+    mission_.task = task_.get();
+    io_.SetAutopilot(autopilot_.get(), &mission_);
+    io_.SetMode(FakeFlightIo::Mode::kAutopilot);
+  }
+
+  // Declared before io_, which points at them: destroyed after it.
+  std::unique_ptr<dataset::FlightTask> task_;
+  std::unique_ptr<control::Autopilot> autopilot_;
+  Mission mission_;
   NullStreamSink stream_sink_;
   FakeFlightIo io_;
   std::unique_ptr<SimulatorService> service_;
@@ -637,19 +655,43 @@ TEST_F(SimulatorFlightContractTest, RealTimeStaleOrMissingCommandsMeanMotorsOff)
   EXPECT_EQ(s.stale_steps(), 150u);
 }
 
+// The vehicle's own failsafe (mav/sim/failsafe.h): real time, the autopilot hovering at the
+// take-off point (1 m) falls silent at 10 s; the failsafe takes over after command_stale_s, holds
+// the vehicle level and lands it (a landing, not a ground collision), then stops the motors; the
+// status says so. Commands coming back hand the vehicle back.
+TEST_F(SimulatorFlightContractTest, RealTimeSilenceInTheAirIsFlownByTheFailsafe) {
+  ASSERT_NO_FATAL_FAILURE(FlyWithTheAutopilot("t3_1"));
+  ASSERT_TRUE(LoadBuiltin("t3_1", /*lockstep=*/false).ok());
+  ASSERT_TRUE(Start(10).ok());
+  v1::FlightStatus s = WaitStopped();
+  ASSERT_EQ(s.state(), v1::FLIGHT_STATE_PAUSED) << s.last_error();
+  ASSERT_TRUE(s.lifted_off());
+  ASSERT_GT(s.position().z(), 0.8);
+  EXPECT_FALSE(s.failsafe_active());
+  EXPECT_EQ(s.failsafe_engagements(), 0u);
+
+  io_.SetMode(FakeFlightIo::Mode::kSilent);  // the controller dies
+  ASSERT_TRUE(Start(11).ok());
+  s = WaitStopped();
+  EXPECT_TRUE(s.failsafe_active()) << "a second of silence in the air";
+  EXPECT_EQ(s.failsafe_engagements(), 1u);
+  EXPECT_NEAR(s.failsafe_s(), 0.9, 0.05);  // from 100 ms after the last command
+  EXPECT_NEAR(s.truth().velocity().z(), -0.4, 0.15);
+  ASSERT_TRUE(Start(16).ok());
+  s = WaitStopped();
+  EXPECT_FALSE(s.failsafe_active()) << "landed: the failsafe is done, motors off";
+  EXPECT_NEAR(s.position().z(), 0.08, 0.01) << "on its legs";
+  EXPECT_EQ(s.collisions_size(), 0) << "a landing, not a ground collision";
+  const double flown = s.failsafe_s();
+  EXPECT_GT(flown, 1.5);
+  EXPECT_LT(flown, 4.0);
+}
+
 // ---- A flight through the service equals mav-eval's
 // -----------------------------------------------
 
 TEST_F(SimulatorFlightContractTest, AHoverFlownThroughTheServiceScoresAsFlyTask) {
-  Result<dataset::FlightTask> task = sim::BuiltinFlightTask("t3_1");
-  ASSERT_TRUE(task.ok());
-  Result<control::Autopilot> ap = control::Autopilot::Create(
-      eval::AutopilotOptionsForTask(*task, control::ControllerType::kPaper));
-  ASSERT_TRUE(ap.ok());
-  Mission mission;
-  mission.task = &*task;
-  io_.SetAutopilot(&*ap, &mission);
-  io_.SetMode(FakeFlightIo::Mode::kAutopilot);
+  ASSERT_NO_FATAL_FAILURE(FlyWithTheAutopilot("t3_1"));
   ASSERT_TRUE(LoadBuiltin("t3_1").ok());
   // pause_on_goal pauses once, at the set point's publication (10 s); the mission reacts inside
   // the fake, so the flight just goes on.
@@ -669,9 +711,9 @@ TEST_F(SimulatorFlightContractTest, AHoverFlownThroughTheServiceScoresAsFlyTask)
 
   eval::FlightMissionOptions options;
   options.seed = 7;
-  Result<eval::FlightRecord> record = eval::FlyTask(*task, options);
+  Result<eval::FlightRecord> record = eval::FlyTask(*task_, options);
   ASSERT_TRUE(record.ok()) << record.status().ToString();
-  const eval::TaskScore expected = eval::ScoreFlight(*task, *record);
+  const eval::TaskScore expected = eval::ScoreFlight(*task_, *record);
   const v1::FlightScore& got = s.score();
   EXPECT_DOUBLE_EQ(got.points(), expected.points);
   EXPECT_DOUBLE_EQ(got.max_points(), expected.max_points);

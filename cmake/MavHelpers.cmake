@@ -55,6 +55,12 @@ function(mav_add_test name)
   if("slow" IN_LIST ARG_LABELS)
     set_tests_properties(${tests} PROPERTIES COST 1000)
   endif()
+  # LABELS load: the test saturates both cores on purpose (mav-load against a server), which
+  # starves whatever runs beside it; a real-time flight beside one missed its 20 ms deadlines and
+  # crashed on take-off. It runs alone.
+  if("load" IN_LIST ARG_LABELS)
+    set_tests_properties(${tests} PROPERTIES RUN_SERIAL TRUE)
+  endif()
 endfunction()
 
 # mav_add_benchmark(<name> SOURCES ... [LIBS ...])

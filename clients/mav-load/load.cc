@@ -86,10 +86,7 @@ Result<std::vector<ServerUsage>> ParsePids(const std::string& text) {
 // What the client threads share.
 struct Shared {
   const LoadRun* run = nullptr;
-  double deadline_ms = 0;
-  double backoff_base_ms = 0;
-  double backoff_max_ms = 0;
-  bool fail_fast = false;
+  const CommonOptions* options = nullptr;
   int64_t end_ns = 0;
   Tally tally;
 };
@@ -115,14 +112,21 @@ void Record(const grpc::Status& status, const Reply& reply, const std::string& p
 }
 
 // The pause after the `failures`-th failed call in a row: 1 ms, or with a cap the full-jitter
-// exponential backoff of CommonOptions::backoff_base_ms and backoff_max_ms.
-std::chrono::microseconds PauseAfterFailure(const Shared& shared, int failures,
+// exponential backoff of backoff_base_ms and backoff_max_ms.
+std::chrono::microseconds PauseAfterFailure(const CommonOptions& o, int failures,
                                             std::mt19937* random) {
-  if (shared.backoff_max_ms <= 0) return std::chrono::milliseconds(1);
-  const double ceiling_ms = std::min(
-      shared.backoff_max_ms, shared.backoff_base_ms * std::ldexp(1.0, std::min(failures - 1, 30)));
+  if (o.backoff_max_ms <= 0) return std::chrono::milliseconds(1);
+  const double ceiling_ms =
+      std::min(o.backoff_max_ms, o.backoff_base_ms * std::ldexp(1.0, std::min(failures - 1, 30)));
   std::uniform_real_distribution<double> pause_ms(0.0, ceiling_ms);
   return std::chrono::microseconds(static_cast<int64_t>(pause_ms(*random) * 1e3));
+}
+
+// A call's deadline (--deadline-ms from now) and whether it waits for a server that is down.
+void PrepareContext(const CommonOptions& o, grpc::ClientContext* context) {
+  context->set_deadline(std::chrono::system_clock::now() +
+                        std::chrono::microseconds(static_cast<int64_t>(o.deadline_ms * 1e3)));
+  context->set_wait_for_ready(!o.fail_fast);
 }
 
 // One client thread: calls back to back until the end of the run.
@@ -131,10 +135,7 @@ void CallUntilEnd(Shared* shared, uint32_t seed) {
   int failures = 0;  // in a row
   while (MonotonicNowNs() < shared->end_ns) {
     grpc::ClientContext context;
-    context.set_deadline(
-        std::chrono::system_clock::now() +
-        std::chrono::microseconds(static_cast<int64_t>(shared->deadline_ms * 1e3)));
-    context.set_wait_for_ready(!shared->fail_fast);
+    PrepareContext(*shared->options, &context);
     Reply reply;
     const int64_t call_ns = MonotonicNowNs();
     const grpc::Status status = shared->run->call(&context, &reply);
@@ -143,7 +144,7 @@ void CallUntilEnd(Shared* shared, uint32_t seed) {
     // A refused client pauses instead of spinning on the server's cores.
     failures = status.ok() ? 0 : failures + 1;
     if (failures > 0) {
-      std::this_thread::sleep_for(PauseAfterFailure(*shared, failures, &random));
+      std::this_thread::sleep_for(PauseAfterFailure(*shared->options, failures, &random));
     }
   }
 }
@@ -214,10 +215,7 @@ class AsyncSlot {
     // The previous call's context goes here, inside that call's completion: gRPC holds its own
     // reference to the call until the completion has returned.
     context_ = std::make_unique<grpc::ClientContext>();
-    context_->set_deadline(
-        std::chrono::system_clock::now() +
-        std::chrono::microseconds(static_cast<int64_t>(shared_->deadline_ms * 1e3)));
-    context_->set_wait_for_ready(!shared_->fail_fast);
+    PrepareContext(*shared_->options, context_.get());
     reply_ = Reply();
     call_ns_ = MonotonicNowNs();
     shared_->run->async_call(context_.get(), &reply_,
@@ -233,7 +231,7 @@ class AsyncSlot {
       return;
     }
     const int64_t pause_ns =
-        std::chrono::nanoseconds(PauseAfterFailure(*shared_, failures_, &random_)).count();
+        std::chrono::nanoseconds(PauseAfterFailure(*shared_->options, failures_, &random_)).count();
     pauses_->Add(std::min(shared_->end_ns, MonotonicNowNs() + pause_ns), [this] { Start(); });
   }
 
@@ -509,10 +507,7 @@ int RunLoad(const CommonOptions& o, const LoadRun& run) {
   std::fflush(stdout);
   Shared shared;
   shared.run = &run;
-  shared.deadline_ms = o.deadline_ms;
-  shared.backoff_base_ms = o.backoff_base_ms;
-  shared.backoff_max_ms = o.backoff_max_ms;
-  shared.fail_fast = o.fail_fast;
+  shared.options = &o;
   for (ServerUsage& u : totals.servers) u.before = ReadProcess(u.pid);
   const int64_t start_ns = MonotonicNowNs();
   shared.end_ns = start_ns + SecondsToNs(o.duration_s);

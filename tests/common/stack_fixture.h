@@ -42,13 +42,8 @@ class Stack {
     for (const auto& [name, target] : targets_) {
       while (target == "127.0.0.1:" + std::to_string(port)) port = FreeTcpPort();
     }
-    std::vector<std::string> argv = {mav::testing::BinaryDir() + "/bin/" + binary, "--port",
-                                     std::to_string(port), "--dds-domain", std::to_string(domain_)};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    auto child = std::make_unique<Child>(argv, Log(binary));
-    if (!child->running()) return "";
     std::string target = "127.0.0.1:" + std::to_string(port);
-    children_[binary] = std::move(child);
+    if (!Launch(binary, std::to_string(port), extra, Log(binary))) return "";
     if (!WaitServing(target, health_name)) return "";
     targets_[binary] = target;
     return target;
@@ -61,12 +56,7 @@ class Stack {
     const std::string target = targets_.at(binary);
     children_.erase(binary);  // ~Child: SIGKILL and reap
     const std::string port = target.substr(target.rfind(':') + 1);
-    std::vector<std::string> argv = {mav::testing::BinaryDir() + "/bin/" + binary, "--port", port,
-                                     "--dds-domain", std::to_string(domain_)};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    auto child = std::make_unique<Child>(argv, Log(binary) + ".restarted");
-    if (!child->running()) return "";
-    children_[binary] = std::move(child);
+    if (!Launch(binary, port, extra, Log(binary) + ".restarted")) return "";
     return WaitServing(target, health_name) ? target : "";
   }
 
@@ -81,6 +71,19 @@ class Stack {
 
  private:
   static std::string LogDir() { return mav::testing::BinaryDir() + "/Testing"; }
+
+  // Starts build/bin/`binary` --port `port` --dds-domain ... `extra`, logging to `log`; false
+  // when it did not start.
+  bool Launch(const std::string& binary, const std::string& port,
+              const std::vector<std::string>& extra, const std::string& log) {
+    std::vector<std::string> argv = {mav::testing::BinaryDir() + "/bin/" + binary, "--port", port,
+                                     "--dds-domain", std::to_string(domain_)};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    auto child = std::make_unique<Child>(argv, log);
+    if (!child->running()) return false;
+    children_[binary] = std::move(child);
+    return true;
+  }
 
   int64_t domain_;
   std::map<std::string, std::unique_ptr<Child>> children_;

@@ -40,7 +40,23 @@ constexpr char kLoopbackDdsConfig[] =
     "</Internal>"
     "</Domain></CycloneDDS>";
 
-constexpr int64_t kMaxDomainId = 230;  // 7400 + 250 * id + offsets must stay below 65536
+constexpr int64_t kMaxDomainId = 230;
+
+// The files of a DDS Security identity directory (deploy/dds-security/make-certs.sh) and the
+// Cyclone configuration elements that name them, by plugin.
+struct SecurityFile {
+  const char* group;
+  const char* element;
+  const char* file;
+};
+constexpr SecurityFile kSecurityFiles[] = {
+    {"Authentication", "IdentityCA", "identity_ca.pem"},
+    {"Authentication", "IdentityCertificate", "cert.pem"},
+    {"Authentication", "PrivateKey", "key.pem"},
+    {"AccessControl", "PermissionsCA", "permissions_ca.pem"},
+    {"AccessControl", "Governance", "governance.p7s"},
+    {"AccessControl", "Permissions", "permissions.p7s"},
+};  // 7400 + 250 * id + offsets must stay below 65536
 
 }  // namespace
 
@@ -96,34 +112,21 @@ std::string DdsOptions::ResolvedConfig() const {
 }
 
 std::string SecurityConfig(const std::string& dir) {
-  auto file = [&dir](const char* name) { return "file://" + dir + "/" + name; };
   // No <Library> elements: Cyclone's default plugin names (dds_security_auth, _ac, _crypto)
   // with their init/finalize functions, which Debian's libddsc finds in its own plugin
   // directory (/usr/lib/<arch>/libddsc0debian) whatever the architecture.
-  return "<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\"><Security>"
-         "<Authentication>"
-         "<IdentityCA>" +
-         file("identity_ca.pem") +
-         "</IdentityCA>"
-         "<IdentityCertificate>" +
-         file("cert.pem") +
-         "</IdentityCertificate>"
-         "<PrivateKey>" +
-         file("key.pem") +
-         "</PrivateKey>"
-         "</Authentication>"
-         "<AccessControl>"
-         "<PermissionsCA>" +
-         file("permissions_ca.pem") +
-         "</PermissionsCA>"
-         "<Governance>" +
-         file("governance.p7s") +
-         "</Governance>"
-         "<Permissions>" +
-         file("permissions.p7s") +
-         "</Permissions>"
-         "</AccessControl>"
-         "</Security></Domain></CycloneDDS>";
+  std::string out = "<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\"><Security>";
+  const char* group = nullptr;
+  for (const SecurityFile& f : kSecurityFiles) {
+    if (group == nullptr || std::strcmp(group, f.group) != 0) {
+      if (group != nullptr) out.append("</").append(group).append(">");
+      group = f.group;
+      out.append("<").append(group).append(">");
+    }
+    out.append("<").append(f.element).append(">file://").append(dir).append("/").append(f.file);
+    out.append("</").append(f.element).append(">");
+  }
+  return out.append("</").append(group).append("></Security></Domain></CycloneDDS>");
 }
 
 Result<std::string> CheckSecurityDir(const std::string& dir, const std::string& what) {
@@ -143,14 +146,16 @@ Result<std::string> CheckSecurityDir(const std::string& dir, const std::string& 
                                    ": not a directory (make one with deploy/dds-security/"
                                    "make-certs.sh OUT; give OUT/<program>)");
   }
-  for (const char* name : kDdsSecurityFiles) {
-    const std::string file = path + "/" + name;
+  for (const SecurityFile& f : kSecurityFiles) {
+    const std::string file = path + "/" + f.file;
     if (::access(file.c_str(), R_OK) != 0) {
+      std::string names;
+      for (const SecurityFile& g : kSecurityFiles)
+        names += (names.empty() ? "" : ", ") + std::string(g.file);
       return Status::InvalidArgument(what + ": " + file + ": " + std::strerror(errno) +
                                      " (an identity directory of deploy/dds-security/"
                                      "make-certs.sh has " +
-                                     "identity_ca.pem, cert.pem, key.pem, permissions_ca.pem, "
-                                     "governance.p7s and permissions.p7s)");
+                                     names + ")");
     }
   }
   return path;

@@ -79,19 +79,15 @@ struct DdsOptions {
   std::string ResolvedConfig() const;
 };
 
-// The files of a DDS Security identity directory, in the order SecurityConfig names them.
-inline constexpr const char* kDdsSecurityFiles[] = {"identity_ca.pem", "cert.pem",
-                                                    "key.pem",         "permissions_ca.pem",
-                                                    "governance.p7s",  "permissions.p7s"};
-
 // The Cyclone configuration fragment that turns DDS Security on with the identity in `dir`
 // (absolute, checked by CheckSecurityDir): authentication, access control and the cryptography
 // the governance document asks for. Merged after the main configuration.
 std::string SecurityConfig(const std::string& dir);
 
-// `dir` made absolute, after checking that every file of kDdsSecurityFiles is there and
-// readable: InvalidArgument "<what>: DIR/cert.pem: ..." naming the first that is not, or a path
-// Cyclone's configuration list cannot carry (a comma, quote, '<', '>' or '&').
+// `dir` made absolute, after checking that every file SecurityConfig names (identity_ca.pem,
+// cert.pem, key.pem, permissions_ca.pem, governance.p7s, permissions.p7s) is there and readable:
+// InvalidArgument "<what>: DIR/cert.pem: ..." naming the first that is not, or a path Cyclone's
+// configuration list cannot carry (a comma, quote, '<', '>' or '&').
 Result<std::string> CheckSecurityDir(const std::string& dir, const std::string& what);
 
 // Registers --dds-domain, --dds-config and --dds-security. Call ApplyDdsEnv() after parsing: the

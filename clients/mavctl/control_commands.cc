@@ -3,6 +3,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -34,7 +35,7 @@ constexpr char kCtlUsage[] =
     "Usage: mavctl ctl <subcommand> [flags]   (mavctl ctl <subcommand> --help for its flags)\n"
     "  ctl configure [--task t3_1|FILE.yaml] [--controller paper|lee] [--lockstep]\n"
     "                [--pose-frame NAME] [--no-dds]\n"
-    "  ctl arm | ctl disarm\n"
+    "  ctl arm [--in-air] | ctl disarm\n"
     "  ctl hover --position X,Y,Z [--yaw RAD] [--immediate] [--max-speed V] [--max-accel A]\n"
     "  ctl trajectory (--to X,Y,Z --duration S | --plan ID --planning HOST:PORT)\n"
     "                 [--start-t-ns T] [--offset X,Y,Z] [--allow-jump]\n"
@@ -101,6 +102,13 @@ void PrintStats(const char* label, const v1::RuntimeStats& s) {
             << s.p95_ms() << " ms, max " << s.max_ms() << " ms (" << s.count() << ")\n";
 }
 
+// "2.35 s" (two decimals).
+std::string Seconds(double s) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.2f s", s);
+  return text;
+}
+
 void PrintControlStatus(const v1::ControlStatus& s) {
   std::cout << std::fixed << std::setprecision(3);
   std::cout << "mode:       " << ModeText(s.mode()) << (s.armed() ? ", armed" : ", disarmed")
@@ -108,12 +116,18 @@ void PrintControlStatus(const v1::ControlStatus& s) {
             << (s.controller() == v1::CONTROLLER_TYPE_LEE ? "lee" : "paper")
             << (s.config().lockstep() ? ", lock-step" : "") << ", DDS input "
             << (s.dds_input() ? "on" : "off") << "\n"
-            << "estimator:  " << (s.estimator_converged() ? "converged" : "not converged") << ", "
-            << s.imu_samples() << " IMU samples (" << s.imu_rejected() << " rejected, "
+            << "estimator:  "
+            << (s.estimator_stale() ? "STALE (its inputs stopped)"
+                                    : (s.estimator_converged() ? "converged" : "not converged"))
+            << ", " << s.imu_samples() << " IMU samples (" << s.imu_rejected() << " rejected, "
             << s.imu_repeated() << " repeated), " << s.poses() << " poses merged ("
             << s.poses_dropped() << " dropped, " << s.poses_rejected() << " rejected)\n"
             << std::setprecision(1) << "rates:      IMU " << s.imu_rate_hz() << " Hz, poses "
-            << s.pose_rate_hz() << " Hz (per wall second)\n"
+            << s.pose_rate_hz() << " Hz (per wall second); " << s.imu_publishers_alive()
+            << " IMU publisher(s) alive; last IMU sample "
+            << (s.has_imu_age_s() ? Seconds(s.imu_age_s()) + " ago" : "never") << ", last pose "
+            << (s.has_pose_age_s() ? Seconds(s.pose_age_s()) + " ago (IMU time)" : "never")
+            << (s.takeover_pending() ? "; --takeover pending" : "") << "\n"
             << std::setprecision(4) << "commands:   " << s.commands() << " published to "
             << s.actuator_subscribers() << " subscriber(s), " << s.saturated_steps()
             << " saturated steps, timeouts IMU " << s.imu_timeouts() << " / pose "
@@ -122,7 +136,10 @@ void PrintControlStatus(const v1::ControlStatus& s) {
             << s.angular_rate_rms_radps() << " rad/s (estimate vs reference, since Arm)\n";
   PrintStats("step:       ", s.step_ms());
   PrintStats("loop:       ", s.loop_ms());
-  if (!s.last_error().empty()) std::cout << "last error: " << s.last_error() << "\n";
+  if (!s.last_error().empty()) {
+    std::cout << "last error (" << Seconds(s.last_error_age_s()) << " ago): " << s.last_error()
+              << "\n";
+  }
   std::cout.unsetf(std::ios::fixed);
 }
 
@@ -410,7 +427,10 @@ void PrintFlightStatus(const v1::FlightStatus& s) {
   }
   PrintStats("step:       ", s.step_ms());
   PrintStats("cmd wait:   ", s.command_wait_ms());
-  if (!s.last_error().empty()) std::cout << "last error: " << s.last_error() << "\n";
+  if (!s.last_error().empty()) {
+    std::cout << "last error (" << Seconds(s.last_error_age_s()) << " ago): " << s.last_error()
+              << "\n";
+  }
   if (s.has_score()) {
     const v1::FlightScore& sc = s.score();
     std::cout << std::setprecision(4) << "score:      " << sc.points() << " of " << sc.max_points()
@@ -557,10 +577,18 @@ int ControlCommand(const std::vector<std::string>& args) {
     ControlConnection connection;
     FlagParser flags("mavctl ctl " + sub, "");
     AddConnectionFlags(&flags, &connection);
+    bool in_air = false;
+    if (sub == "arm") {
+      flags.AddBool("in-air", &in_air,
+                    "take over a vehicle already flying (its controller was restarted): hold it "
+                    "where it is");
+    }
     ParseOrExit(&flags, &connection, rest);
     if (sub == "arm") {
-      return CallControl(connection, "Arm", [](auto* stub, auto* c, auto* r) {
-        return stub->Arm(c, v1::ArmRequest(), r);
+      v1::ArmRequest request;
+      request.set_in_air(in_air);
+      return CallControl(connection, "Arm", [&request](auto* stub, auto* c, auto* r) {
+        return stub->Arm(c, request, r);
       });
     }
     if (sub == "disarm") {

@@ -55,6 +55,7 @@ ControlConfig ConfigForFlightTask(const dataset::FlightTask& task,
     config.pose_frames.push_back("pose_sensor" + std::to_string(i));
   }
   config.lockstep = lockstep;
+  config.autopilot.rest_z_m = task.spawn_position.z();  // resting on its legs
   return config;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "mav/common/check.h"
 #include "mav/common/log.h"
@@ -51,6 +52,7 @@ Status ControlCore::Configure(const ControlConfig& config, const Termination& de
   pose_rate_.Clear();
   loop_ms_.Clear();
   last_error_.clear();
+  takeover_pending_ = false;
   MAV_LOG(kInfo) << "configured: " << control::ControllerTypeName(config.autopilot.controller)
                  << " controller, " << config.autopilot.estimator.pose_sources.size()
                  << " pose source(s), IMU " << config.autopilot.estimator.imu_rate_hz << " Hz"
@@ -109,6 +111,28 @@ void ControlCore::OnImu(const control::ImuMeasurement& imu) {
   imu_rate_.Add(start_ns);
   (void)PublishLocked(imu.t_ns, last_armed_, last_command_);
   loop_ms_.Add(MsSince(start_ns));
+  if (takeover_pending_) TryTakeoverLocked();
+}
+
+void ControlCore::TryTakeoverLocked() {
+  if (autopilot_->armed()) {  // armed by a client meanwhile
+    takeover_pending_ = false;
+    return;
+  }
+  if (!autopilot_->ReadyForTakeover()) return;
+  takeover_pending_ = false;
+  const Eigen::Vector3d p = autopilot_->estimator().state().p_world;
+  if (Status s = autopilot_->ArmInAir(); !s.ok()) {
+    last_error_ = "takeover: " + s.message();
+    MAV_LOG(kWarning) << last_error_.text() << " (staying disarmed)";
+    return;
+  }
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "took over the vehicle in the air at (%.2f, %.2f, %.2f) m, IMU time %.2f s: "
+                "holding there",
+                p.x(), p.y(), p.z(), NsToSeconds(last_imu_t_ns_));
+  MAV_LOG(kWarning) << text;
 }
 
 void ControlCore::OnPose(const std::string& frame_id, int64_t t_ns,
@@ -196,7 +220,7 @@ void ControlCore::GiveUpWaiting(int64_t imu_t_ns) {
                   std::to_string(NsToSeconds(*due)) + " s within " +
                   std::to_string(NsToSeconds(s.wait_ns)) +
                   " s: flying on without it until it answers again";
-    MAV_LOG(kWarning) << last_error_;
+    MAV_LOG(kWarning) << last_error_.text();
   }
 }
 
@@ -240,22 +264,51 @@ void ControlCore::RejectPose(const std::string& why) {
   last_error_ = "pose: " + why;
 }
 
-void ControlCore::OnPoll(int64_t now_wall_ns) {
+void ControlCore::OnPoll(int64_t now_wall_ns, uint32_t imu_publishers_alive) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!autopilot_.has_value() || config_->lockstep || !have_imu_) return;
+  const bool lost = imu_publisher_seen_ && imu_publishers_alive == 0 && imu_publishers_alive_ > 0;
+  imu_publishers_alive_ = imu_publishers_alive;
+  if (imu_publishers_alive > 0) imu_publisher_seen_ = true;
+  if (lost) {
+    last_error_ = "the IMU's publisher (the simulator) is gone: its DDS liveliness lapsed";
+    MAV_LOG(kWarning) << last_error_.text() << "; the estimate is stale";
+  }
+  if (!autopilot_.has_value() || !have_imu_) return;
+  control::RotorVector command;
+  if (config_->lockstep) {
+    // A paused simulation is not a lost IMU, a vanished simulator is: the ImuLossPolicy.
+    if (!lost) return;
+    const int64_t after_ns = last_imu_t_ns_ + SecondsToNs(config_->autopilot.imu_timeout_s) + 1;
+    if (!autopilot_->CheckImuTimeout(after_ns, &command)) return;
+    last_error_ =
+        last_error_.text() + (autopilot_->armed() ? ": holding the last command" : ": disarmed");
+    MAV_LOG(kWarning) << last_error_.text();
+    (void)PublishLocked(after_ns, autopilot_->armed(), command);
+    return;
+  }
   // The IMU's time line advanced by the wall time since the last sample.
   const int64_t now_imu_ns = last_imu_t_ns_ + (now_wall_ns - last_imu_wall_ns_);
-  control::RotorVector command;
   if (!autopilot_->CheckImuTimeout(now_imu_ns, &command)) return;
   last_error_ = "no IMU sample for " + std::to_string((now_wall_ns - last_imu_wall_ns_) / 1000000) +
                 " ms: " + (autopilot_->armed() ? "holding the last command" : "disarmed");
   (void)PublishLocked(now_imu_ns, autopilot_->armed(), command);
 }
 
-Status ControlCore::Arm() {
+Status ControlCore::SetTakeover(bool enabled) {
   std::lock_guard<std::mutex> lock(mutex_);
   MAV_RETURN_IF_ERROR(CheckConfiguredLocked());
-  return autopilot_->Arm();
+  if (enabled && !autopilot_->options().rest_z_m) {
+    return Status::FailedPrecondition(
+        "takeover: the configuration does not say where the ground is (rest_z_m)");
+  }
+  takeover_pending_ = enabled;
+  return Status::Ok();
+}
+
+Status ControlCore::Arm(bool in_air) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MAV_RETURN_IF_ERROR(CheckConfiguredLocked());
+  return in_air ? autopilot_->ArmInAir() : autopilot_->Arm();
 }
 
 void ControlCore::Disarm() {
@@ -320,8 +373,26 @@ ControlCoreStatus ControlCore::GetStatus() const {
   s.lockstep_frames_missed = lockstep_frames_missed_;
   for (const LockstepSource& l : lockstep_) s.lockstep_source_silent |= l.enabled && l.silent;
   s.loop_ms = loop_ms_.Summary();
-  s.last_error = last_error_;
+  s.last_error = last_error_.text();
+  s.last_error_age_s = last_error_.AgeS(now_ns);
+  s.imu_publishers_alive = imu_publishers_alive_;
+  s.takeover_pending = takeover_pending_;
+  if (have_imu_) s.imu_age_s = NsToSeconds(now_ns - last_imu_wall_ns_);
+  if (autopilot_.has_value() && autopilot_->estimator().initialized()) {
+    s.pose_age_s = NsToSeconds(last_imu_t_ns_ - autopilot_->last_pose_arrival_ns());
+  }
+  s.estimator_stale = StaleLocked(now_ns);
+  if (s.estimator_stale) s.autopilot.estimator_converged = false;
   return s;
+}
+
+bool ControlCore::StaleLocked(int64_t now_wall_ns) const {
+  if (!autopilot_.has_value() || !have_imu_) return false;  // never fed: not converged anyway
+  if (imu_publisher_seen_ && imu_publishers_alive_ == 0) return true;
+  if (!config_->lockstep && now_wall_ns - last_imu_wall_ns_ > SecondsToNs(kStaleImuS)) return true;
+  return autopilot_->estimator().initialized() &&
+         last_imu_t_ns_ - autopilot_->last_pose_arrival_ns() >
+             SecondsToNs(config_->autopilot.pose_timeout_s);
 }
 
 ControlCoreState ControlCore::GetState() const {

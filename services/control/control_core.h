@@ -26,7 +26,18 @@
 // Failsafes are the autopilot's: no pose for pose_timeout_s (IMU time line) -> level on the IMU
 // and descend; no IMU for imu_timeout_s (wall clock, OnPoll) -> the ImuLossPolicy. In lock-step
 // (ControlConfig::lockstep) the wall-clock watchdog is off: a paused simulation is not a lost
-// IMU, and the simulator's own command timeout notices a controller that stopped answering.
+// IMU, and the simulator's own command timeout notices a controller that stopped answering; a
+// vanished simulator is told from a paused one by the IMU writer's DDS liveliness (OnPoll's
+// imu_publishers_alive dropping to 0): the ImuLossPolicy then applies in lock-step too.
+//
+// Status tells the truth about the inputs: the estimate is `stale` (and not reported converged)
+// while no IMU publisher is alive, no IMU sample came for kStaleImuS of wall time (real time),
+// or no pose was merged for pose_timeout_s of IMU time.
+//
+// Taking over in the air (SetTakeover, mav-control --takeover: a controller restarted while the
+// vehicle flies on its own failsafe): once the autopilot is ReadyForTakeover the core tries
+// ArmInAir once; airborne, it holds where the vehicle is; on the ground it logs why and stays
+// disarmed (a vehicle carried into the air later is never armed by surprise).
 //
 // Lock-step pose sources (ControlConfig::lockstep_poses, a localization service tracking a
 // lock-stepped simulator's camera): their poses are held and merged when the IMU's time reaches
@@ -45,6 +56,7 @@
 #include <string>
 #include <vector>
 
+#include "mav/common/last_error.h"
 #include "mav/common/stats.h"
 #include "mav/common/status.h"
 #include "mav/common/termination.h"
@@ -86,7 +98,14 @@ struct ControlCoreStatus {
   bool lockstep_source_silent = false;
   RuntimeStats loop_ms;  // OnImu: sample in -> command written
   std::string last_error;
+  double last_error_age_s = 0;  // wall seconds since it was set (0: none)
   uint32_t actuator_subscribers = 0;
+  // The inputs (see the class comment): stale = the estimate is not being fed.
+  bool estimator_stale = false;
+  std::optional<double> imu_age_s;   // wall seconds since the last IMU sample
+  std::optional<double> pose_age_s;  // IMU seconds since the last merged pose
+  uint32_t imu_publishers_alive = 0;
+  bool takeover_pending = false;
 };
 
 struct ControlCoreState {
@@ -137,11 +156,17 @@ class ControlCore {
   // A sample the transport could not use (malformed); counted with its reason.
   void RejectImu(const std::string& why);
   void RejectPose(const std::string& why);
-  // The IMU watchdog on the service's clock (MonotonicNowNs); off in lock-step.
-  void OnPoll(int64_t now_wall_ns);
+  // The IMU watchdog on the service's clock (MonotonicNowNs), off in lock-step; and the IMU
+  // writers alive now (DDS liveliness): when they drop to 0 the simulator is gone.
+  void OnPoll(int64_t now_wall_ns, uint32_t imu_publishers_alive);
+
+  // Arm in the air (ArmInAir) as soon as the autopilot is ready (see the class comment); false
+  // cancels a pending takeover. Needs the configuration (FailedPrecondition).
+  Status SetTakeover(bool enabled);
 
   // ---- Commands (RPC threads); FailedPrecondition when unconfigured ----
-  Status Arm();
+  // in_air: Autopilot::ArmInAir (a vehicle already flying) instead of Arm.
+  Status Arm(bool in_air = false);
   void Disarm();
   // immediate: hold (position, yaw) at once; else a smooth move (limits or the configured ones).
   Status Hover(const Eigen::Vector3d& position, double yaw_rad,
@@ -177,6 +202,9 @@ class ControlCore {
   void ReleaseHeldLocked(int64_t imu_t_ns);
   Status PublishLocked(int64_t t_ns, bool armed, const control::RotorVector& speeds);
   Status CheckConfiguredLocked() const;
+  // The pending takeover, after an IMU step.
+  void TryTakeoverLocked();
+  bool StaleLocked(int64_t now_wall_ns) const;
 
   CommandSink* sink_;
   mutable std::mutex mutex_;
@@ -197,7 +225,13 @@ class ControlCore {
   uint64_t lockstep_frames_missed_ = 0;
   RateMeter imu_rate_, pose_rate_;
   RuntimeWindow loop_ms_{1000};
-  std::string last_error_;
+  LastError last_error_;
+  uint32_t imu_publishers_alive_ = 0;
+  bool imu_publisher_seen_ = false;  // alive > 0 once: a drop to 0 is a loss
+  bool takeover_pending_ = false;
 };
+
+// Wall seconds without an IMU sample after which a real-time estimate is reported stale.
+inline constexpr double kStaleImuS = 0.5;
 
 }  // namespace mav::control_service

@@ -105,10 +105,10 @@ grpc::Status ControlService::Configure(grpc::ServerContext* context,
   return ApplyConfigure(*request, CallWatch(context).termination(), response);
 }
 
-grpc::Status ControlService::Arm(grpc::ServerContext* context, const v1::ArmRequest*,
+grpc::Status ControlService::Arm(grpc::ServerContext* context, const v1::ArmRequest* request,
                                  v1::ControlStatus* response) {
   if (Status s = CheckDeadline(*context, "Arm"); !s.ok()) return ToGrpcStatus(s);
-  if (Status s = core_->Arm(); !s.ok()) return ToGrpcStatus(s);
+  if (Status s = core_->Arm(request->in_air()); !s.ok()) return ToGrpcStatus(s);
   FillStatus(response);
   return grpc::Status::OK;
 }

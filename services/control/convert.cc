@@ -254,6 +254,13 @@ Result<ControlConfig> ConfigFromProto(const v1::ControlConfigureRequest& r) {
   MAV_RETURN_IF_ERROR(Pick(r.min_rotor_speed_radps(), "min_rotor_speed_radps",
                            &o.allocation.min_rotor_speed_radps));
   config.lockstep = r.lockstep();
+  if (r.has_rest_z_m()) {
+    if (!std::isfinite(r.rest_z_m())) return Status::InvalidArgument("rest_z_m: must be finite");
+    o.rest_z_m = r.rest_z_m();
+  }
+  MAV_RETURN_IF_ERROR(
+      Pick(r.takeover_min_height_m(), "takeover_min_height_m", &o.takeover_min_height_m));
+  MAV_RETURN_IF_ERROR(Pick(r.takeover_settle_s(), "takeover_settle_s", &o.takeover_settle_s));
   // The allocation's one field is at the request's top level.
   if (std::string why; !o.allocation.IsValid(&why) || !o.allocation.FitsVehicle(o.vehicle, &why)) {
     return Status::InvalidArgument(why);
@@ -354,6 +361,9 @@ void ToProto(const ControlConfig& config, v1::ControlConfigureRequest* out) {
   out->set_correction_blend_s(o.correction_blend_s);
   out->set_min_rotor_speed_radps(o.allocation.min_rotor_speed_radps);
   out->set_lockstep(config.lockstep);
+  if (o.rest_z_m) out->set_rest_z_m(*o.rest_z_m);
+  out->set_takeover_min_height_m(o.takeover_min_height_m);
+  out->set_takeover_settle_s(o.takeover_settle_s);
 }
 
 v1::ControlMode ToProto(control::FlightMode mode) {
@@ -402,6 +412,12 @@ void ToProto(const ControlCoreStatus& s, bool dds_input, v1::ControlStatus* out)
   out->set_dds_input(dds_input);
   out->set_actuator_subscribers(s.actuator_subscribers);
   out->set_last_error(s.last_error);
+  out->set_last_error_age_s(s.last_error_age_s);
+  out->set_estimator_stale(s.estimator_stale);
+  if (s.imu_age_s) out->set_imu_age_s(*s.imu_age_s);
+  if (s.pose_age_s) out->set_pose_age_s(*s.pose_age_s);
+  out->set_imu_publishers_alive(s.imu_publishers_alive);
+  out->set_takeover_pending(s.takeover_pending);
 }
 
 void ToProto(const ControlCoreState& s, v1::ControlState* out) {

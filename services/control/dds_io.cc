@@ -176,7 +176,17 @@ Status DdsIo::SetInput(bool enabled) {
     if (core_->AwaitingPose(imu->t_ns)) WaitForPoses(imu->t_ns);
     core_->OnImu(*imu);
   });
-  read_loop_->SetOnPoll([this] { core_->OnPoll(MonotonicNowNs()); });
+  // Called after every wake (each IMU sample) too: the liveliness is read once per poll period.
+  read_loop_->SetOnPoll([this, alive = uint32_t{0}, next_ns = int64_t{0}]() mutable {
+    const int64_t now_ns = MonotonicNowNs();
+    if (now_ns >= next_ns) {
+      // The reader lives while the loop runs (StopInputLocked joins the loop first).
+      Result<uint32_t> n = imu_reader_->AliveWriters();
+      alive = n.ok() ? *n : 0;
+      next_ns = now_ns + kPollNs;
+    }
+    core_->OnPoll(now_ns, alive);
+  });
   MAV_RETURN_IF_ERROR(read_loop_->Start());
   MAV_LOG(kInfo) << "DDS input on: " << transport::kImuTopic << ", " << transport::kPoseTopic;
   return Status::Ok();

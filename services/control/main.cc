@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   std::string task;
   std::string controller = "paper";
   bool lockstep = false;
+  bool takeover = false;
   std::string plant_map = mav::sim::DefaultPlantMapPath();
   mav::control_service::ControlServiceOptions options;
   runner.flags().AddString("task", &task,
@@ -30,6 +31,10 @@ int main(int argc, char** argv) {
   runner.flags().AddBool("lockstep", &lockstep,
                          "--task: the IMU comes from a lock-stepped simulator (no wall-clock "
                          "IMU watchdog)");
+  runner.flags().AddBool("takeover", &takeover,
+                         "--task: take over a vehicle already in the air (a controller restarted "
+                         "mid-flight): arm in the air once 0.5 s of poses are merged and hold "
+                         "where it is; on the ground stay disarmed");
   runner.flags().AddString("plant-map", &plant_map, "--task t4_3: the power plant's OctoMap");
   runner.flags().AddInt("planning-timeout-ms", &options.planning_timeout_ms,
                         "longest wait for Planning.GetPlan in SetTrajectory");
@@ -37,8 +42,8 @@ int main(int argc, char** argv) {
   if (controller != "paper" && controller != "lee") {
     return runner.Usage("--controller: " + mav::QuoteForError(controller) + " is not paper or lee");
   }
-  if (task.empty() && (lockstep || runner.flags().WasSet("controller"))) {
-    return runner.Usage("--controller/--lockstep need --task");
+  if (task.empty() && (lockstep || takeover || runner.flags().WasSet("controller"))) {
+    return runner.Usage("--controller/--lockstep/--takeover need --task");
   }
   if (std::string why; !options.IsValid(&why)) return runner.Usage(why);
 
@@ -64,6 +69,10 @@ int main(int argc, char** argv) {
     const grpc::Status configured = service.ApplyConfigure(request, {}, &status);
     if (!configured.ok()) {
       return runner.Fail(mav::Status::InvalidArgument("--task: " + configured.error_message()));
+    }
+    if (takeover) {
+      if (mav::Status s = core.SetTakeover(true); !s.ok()) return runner.Fail(s);
+      MAV_LOG(kInfo) << "--takeover: arming in the air once the estimate has settled";
     }
   }
   return runner.Serve({&service}, {mav::v1::Control::service_full_name()}, [&] {

@@ -325,6 +325,7 @@ void ToProto(const FlightStatus& status, v1::FlightStatus* out) {
   ToProto(status.command_wait_ms, out->mutable_command_wait_ms());
   out->set_pause_reason(status.pause_reason);
   out->set_last_error(status.last_error);
+  out->set_last_error_age_s(status.last_error_age_s);
   if (status.score.has_value()) ToProto(*status.score, out->mutable_score());
   out->set_min_clearance_m(status.min_clearance_m);
   out->set_actuator_writers(status.actuator_writers);

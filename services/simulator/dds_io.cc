@@ -132,8 +132,10 @@ Result<std::unique_ptr<DdsStreamSink>> DdsStreamSink::Create(const transport::Dd
                        service_common::OpenTopic<mav_dds_ActuatorCommand>(p));
   MAV_ASSIGN_OR_RETURN(sink->stereo_, transport::Writer<mav_dds_StereoFrame>::Create(
                                           p, *sink->stereo_topic_, Qos::SensorStream()));
-  MAV_ASSIGN_OR_RETURN(sink->imu_, transport::Writer<mav_dds_ImuSample>::Create(
-                                       p, *sink->imu_topic_, Qos::HighRate()));
+  // A short liveliness lease: mav-control tells a vanished simulator from a paused one by it.
+  MAV_ASSIGN_OR_RETURN(sink->imu_,
+                       transport::Writer<mav_dds_ImuSample>::Create(
+                           p, *sink->imu_topic_, Qos::HighRate().Liveliness(kImuLivelinessNs)));
   MAV_ASSIGN_OR_RETURN(sink->gt_, transport::Writer<mav_dds_GroundTruthState>::Create(
                                       p, *sink->gt_topic_, Qos::State()));
   MAV_ASSIGN_OR_RETURN(sink->pose_, transport::Writer<mav_dds_PoseWithCovariance>::Create(

@@ -109,6 +109,9 @@ struct Flight::Loaded {
   RealTimePacer pacer{1.0, kMaxLatenessNs};
   std::optional<ActuatorInput> latest;
   sim::RotorVector latest_command;
+  // The vehicle's failsafe (real time): off, flying it down, or landed with the motors off
+  // until fresh commands come (a bounce on touchdown does not restart it).
+  FailsafePhase failsafe_phase = FailsafePhase::kOff;
 };
 
 Flight::Flight(FlightIo* io)
@@ -223,6 +226,7 @@ Result<FlightStatus> Flight::Start(const FlightRun& run) {
     }
     state_ = FlightState::kRunning;
     pause_reason_.clear();
+    last_error_.clear();  // the previous run's (a lock-step timeout's) is in the log
     run_start_wall_ns_ = run_last_wall_ns_ = MonotonicNowNs();
     run_start_t_ns_ = t_ns_;
   }
@@ -291,7 +295,8 @@ FlightStatus Flight::StatusLocked() const {
   s.step_ms = step_ms_.Summary();
   s.command_wait_ms = command_wait_ms_.Summary();
   s.pause_reason = pause_reason_;
-  s.last_error = last_error_;
+  s.last_error = last_error_.text();
+  s.last_error_age_s = last_error_.AgeS();
   s.score = score_;
   s.min_clearance_m = min_clearance_m_;
   s.actuator_writers = io_->ActuatorWriters();
@@ -389,6 +394,15 @@ std::optional<sim::RotorVector> Flight::Checked(const ActuatorInput& input, int 
   return std::nullopt;
 }
 
+Flight::FailsafePhase Flight::NextFailsafePhase(FailsafePhase before, bool stale, bool on_ground) {
+  if (!stale) return FailsafePhase::kOff;
+  if (before == FailsafePhase::kLanded) return FailsafePhase::kLanded;  // until fresh commands
+  // Stale on the ground before any flight: motors off, no failsafe.
+  if (on_ground)
+    return before == FailsafePhase::kDescending ? FailsafePhase::kLanded : FailsafePhase::kOff;
+  return FailsafePhase::kDescending;
+}
+
 std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& context, Loaded* loaded,
                                                        bool* timed_out) {
   const FlightConfig& config = loaded->config;
@@ -418,7 +432,7 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
                               ") within " + Number(config.lockstep_timeout_s) + " s (" +
                               std::to_string(io_->ActuatorWriters()) + " actuator writers matched)";
         if (commands_rejected_ > rejected_before) {
-          message += "; the last one was rejected: " + last_error_;  // Checked()'s reason
+          message += "; the last one was rejected: " + last_error_.text();  // Checked()'s reason
         } else {
           message +=
               ": is the controller configured, with DDS input, and answering every IMU sample?";
@@ -444,38 +458,50 @@ std::optional<sim::RotorVector> Flight::CommandForStep(const TaskContext& contex
   std::optional<ActuatorInput> input = io_->WaitForCommand(
       std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::max(), 0, &received);
   count_received();
+  using Failsafe = FailsafePhase;
   if (input) {
     if (std::optional<sim::RotorVector> command = Checked(*input, rotor_count)) {
-      loaded->latest = std::move(input);
-      loaded->latest_command = *command;
+      // Once the failsafe flies, only an armed command takes the vehicle back.
+      if (input->armed || loaded->failsafe_phase == Failsafe::kOff) {
+        loaded->latest = std::move(input);
+        loaded->latest_command = *command;
+      }
     }
   }
   const bool stale =
       !loaded->latest || t_ns - loaded->latest->t_ns > SecondsToNs(config.command_stale_s);
   const sim::MulticopterState& vehicle = loaded->sim.vehicle().state();
+  const Failsafe before = loaded->failsafe_phase;
+  const Failsafe phase = NextFailsafePhase(before, stale, vehicle.on_ground);
+  loaded->failsafe_phase = phase;
   std::lock_guard<std::mutex> lock(mutex_);
-  const bool failsafe = stale && !vehicle.on_ground;
-  if (failsafe != failsafe_active_) {
-    if (failsafe) {
-      ++failsafe_engagements_;
-      char text[160];
-      std::snprintf(text, sizeof(text),
-                    "t %.2f s: no valid actuator command for %.2f s at %.2f m: failsafe: level, "
-                    "descending at %.2f m/s, motors off on the ground",
-                    NsToSeconds(t_ns), config.command_stale_s, vehicle.p_world.z(),
-                    loaded->failsafe.options().descent_mps);
-      MAV_LOG(kWarning) << text;
-    } else {
-      MAV_LOG(kInfo) << "t " << NsToSeconds(t_ns) << " s: failsafe off ("
-                     << (stale ? "landed" : "valid commands again") << ")";
-    }
-    failsafe_active_ = failsafe;
-  }
+  if (phase != before) LogFailsafeLocked(t_ns, before, phase, vehicle, *loaded);
+  failsafe_active_ = phase == Failsafe::kDescending;
   if (!stale) return loaded->latest_command;
   ++stale_steps_;
-  if (!failsafe) return sim::RotorVector::Zero(rotor_count);
+  if (phase != Failsafe::kDescending) return sim::RotorVector::Zero(rotor_count);
   failsafe_ns_ += loaded->sim.step_ns();
   return loaded->failsafe.Command(vehicle);
+}
+
+void Flight::LogFailsafeLocked(int64_t t_ns, FailsafePhase before, FailsafePhase phase,
+                               const sim::MulticopterState& vehicle, const Loaded& loaded) {
+  using Failsafe = FailsafePhase;
+  if (phase == Failsafe::kDescending) {
+    ++failsafe_engagements_;
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "t %.2f s: no valid actuator command for %.2f s at %.2f m: failsafe: level, "
+                  "descending at %.2f m/s, motors off on the ground",
+                  NsToSeconds(t_ns), loaded.config.command_stale_s, vehicle.p_world.z(),
+                  loaded.failsafe.options().descent_mps);
+    MAV_LOG(kWarning) << text;
+  } else if (phase == Failsafe::kLanded) {
+    MAV_LOG(kInfo) << "t " << NsToSeconds(t_ns)
+                   << " s: failsafe landed the vehicle: motors off until armed commands come";
+  } else if (before != Failsafe::kOff) {
+    MAV_LOG(kInfo) << "t " << NsToSeconds(t_ns) << " s: failsafe off (armed commands again)";
+  }
 }
 
 void Flight::FinishLocked(Loaded* loaded) {
@@ -549,7 +575,7 @@ Status Flight::Run(const TaskContext& context, const FlightRun& run) {
         std::lock_guard<std::mutex> lock(mutex_);
         state_ = FlightState::kPaused;
         pause_reason_ = "lock-step timeout (see last_error)";
-        MAV_LOG(kWarning) << last_error_;
+        MAV_LOG(kWarning) << last_error_.text();
       }
       return Status::Ok();
     }

@@ -9,7 +9,9 @@
 //            flight with a last_error naming the step, never a hang)
 //            real time: sleep until t_{k+1} is due, take the newest command (none, or older than
 //            command_stale_s of simulated time: the vehicle's own failsafe flies it, see
-//            mav/sim/failsafe.h: level, 0.4 m/s down, motors off on the ground)
+//            mav/sim/failsafe.h: level, 0.4 m/s down, motors off on the ground until fresh
+//            commands come; once it flies, only an armed command takes the vehicle back: a
+//            restarted controller that is not armed yet does not stop the rotors in the air)
 //            FlightSimulation::Step(command) -> step k+1
 //   end:     FINISHED, scored with eval::ScoreFlightTask (the contest's scripts) on the truth.
 // Lock-step waits (at most lockstep_timeout_s) before the very first step until a controller is
@@ -38,6 +40,7 @@
 #include <string>
 #include <vector>
 
+#include "mav/common/last_error.h"
 #include "mav/common/stats.h"
 #include "mav/common/status.h"
 #include "mav/common/termination.h"
@@ -150,7 +153,8 @@ struct FlightStatus {
   RuntimeStats step_ms;
   RuntimeStats command_wait_ms;
   std::string pause_reason;
-  std::string last_error;
+  std::string last_error;                // of this run (cleared by LoadFlightTask and StartFlight)
+  double last_error_age_s = 0;           // wall seconds since it was set (0: none)
   std::optional<eval::TaskScore> score;  // when FINISHED
   double min_clearance_m = 0;            // 0 without a map
   uint32_t actuator_writers = 0;
@@ -201,6 +205,12 @@ class Flight {
 
  private:
   struct Loaded;  // the simulation and what the worker keeps of it
+  // The vehicle's failsafe (real time): off, flying it down, or landed with the motors off
+  // until fresh commands come (a bounce on touchdown does not restart it).
+  enum class FailsafePhase { kOff, kDescending, kLanded };
+  static FailsafePhase NextFailsafePhase(FailsafePhase before, bool stale, bool on_ground);
+  void LogFailsafeLocked(int64_t t_ns, FailsafePhase before, FailsafePhase phase,
+                         const sim::MulticopterState& vehicle, const Loaded& loaded);
   // On the worker: steps until the end, a pause condition, or the task goes stale.
   Status Run(const TaskContext& context, const FlightRun& run);
   Status PublishStep(const sim::FlightStep& out, Loaded* loaded);
@@ -239,7 +249,7 @@ class Flight {
   RuntimeWindow step_ms_;
   RuntimeWindow command_wait_ms_;
   std::string pause_reason_;
-  std::string last_error_;
+  LastError last_error_;
   std::optional<eval::TaskScore> score_;
   double min_clearance_m_ = 0;
   sim::MulticopterState truth_;

@@ -143,11 +143,13 @@ class ControlContractTest : public ::testing::Test {
     v1::ControlStatus local;
     return stub_->Configure(&context, request, out != nullptr ? out : &local);
   }
-  grpc::Status Arm(v1::ControlStatus* out = nullptr) {
+  grpc::Status Arm(v1::ControlStatus* out = nullptr, bool in_air = false) {
     grpc::ClientContext context;
     context.set_deadline(Deadline(5));
     v1::ControlStatus local;
-    return stub_->Arm(&context, v1::ArmRequest(), out != nullptr ? out : &local);
+    v1::ArmRequest request;
+    request.set_in_air(in_air);
+    return stub_->Arm(&context, request, out != nullptr ? out : &local);
   }
   grpc::Status Disarm() {
     grpc::ClientContext context;
@@ -512,6 +514,48 @@ TEST_F(ControlContractTest, ArmNeedsAConvergedEstimatorAndAFreshPose) {
   EXPECT_TRUE(Configure(TaskRequest()).ok());
 }
 
+// Arm{in_air} (a restarted controller taking over a flying vehicle; flown in the air by
+// control_autopilot_test and control_stack_test): refused without the ground's height, before
+// the estimate settled, and on the ground, each saying why.
+TEST_F(ControlContractTest, ArmInTheAirNeedsTheGroundASettledEstimateAndAnAirborneVehicle) {
+  v1::ControlConfigureRequest request = TaskRequest();
+  EXPECT_NEAR(request.rest_z_m(), task_.spawn_position.z(), 1e-12) << "the task's spawn height";
+  request.clear_rest_z_m();
+  ASSERT_TRUE(Configure(request).ok());
+  Fly(1.0);
+  grpc::Status s = Arm(nullptr, /*in_air=*/true);
+  EXPECT_EQ(s.error_code(), StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(s.error_message().find("rest_z_m"), std::string::npos) << s.error_message();
+  EXPECT_EQ(core_->SetTakeover(true).code(), mav::StatusCode::kFailedPrecondition);
+
+  v1::ControlStatus configured;
+  ASSERT_TRUE(Configure(TaskRequest(), &configured).ok());
+  EXPECT_TRUE(configured.config().has_rest_z_m());
+  EXPECT_NEAR(configured.config().takeover_settle_s(), 0.5, 1e-12);
+  EXPECT_NEAR(configured.config().takeover_min_height_m(), 0.3, 1e-12);
+  Fly(0.2);
+  s = Arm(nullptr, /*in_air=*/true);
+  EXPECT_EQ(s.error_code(), StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(s.error_message().find("merged poses for 0.5"), std::string::npos) << s.error_message();
+  Fly(0.6);
+  s = Arm(nullptr, /*in_air=*/true);
+  EXPECT_EQ(s.error_code(), StatusCode::FAILED_PRECONDITION);
+  EXPECT_NE(s.error_message().find("not airborne"), std::string::npos) << s.error_message();
+  EXPECT_FALSE(GetStatus().armed());
+  // A pending takeover on the ground gives up once and stays disarmed.
+  ASSERT_TRUE(Configure(TaskRequest()).ok());
+  ASSERT_TRUE(core_->SetTakeover(true).ok());
+  EXPECT_TRUE(GetStatus().takeover_pending());
+  Fly(1.0);
+  v1::ControlStatus status = GetStatus();
+  EXPECT_FALSE(status.takeover_pending());
+  EXPECT_FALSE(status.armed());
+  EXPECT_NE(status.last_error().find("takeover: in the air: the vehicle is"), std::string::npos)
+      << status.last_error();
+  ExpectConfigureInvalid([](v1::ControlConfigureRequest* r) { r->set_takeover_settle_s(11); },
+                         "takeover_settle_s");
+}
+
 TEST_F(ControlContractTest, EveryImuSampleGetsOneCommandStampedWithIt) {
   ASSERT_TRUE(Configure(TaskRequest()).ok());
   Fly(5.0);
@@ -811,9 +855,9 @@ TEST_F(ControlContractTest, TheImuWatchdogRunsOnTheWallClockUnlessLockstepped) {
   Airborne(/*lockstep=*/false);
   const size_t before = sink_.commands().size();
   // 50 ms without IMU: nothing; 150 ms: the motors-off policy disarms, and says so on the wire.
-  core_->OnPoll(MonotonicNowNs() + 50'000'000);
+  core_->OnPoll(MonotonicNowNs() + 50'000'000, 1);
   EXPECT_TRUE(GetStatus().armed());
-  core_->OnPoll(MonotonicNowNs() + 150'000'000);
+  core_->OnPoll(MonotonicNowNs() + 150'000'000, 1);
   v1::ControlStatus status = GetStatus();
   EXPECT_FALSE(status.armed());
   EXPECT_EQ(status.imu_timeouts(), 1u);
@@ -825,11 +869,29 @@ TEST_F(ControlContractTest, TheImuWatchdogRunsOnTheWallClockUnlessLockstepped) {
   SetUp();
   sim_.reset();
   Airborne(/*lockstep=*/true);
-  core_->OnPoll(MonotonicNowNs() + 10'000'000'000);
+  core_->OnPoll(MonotonicNowNs() + 10'000'000'000, 1);
   status = GetStatus();
   EXPECT_TRUE(status.armed());
   EXPECT_EQ(status.imu_timeouts(), 0u);
   EXPECT_TRUE(status.config().lockstep());
+  EXPECT_FALSE(status.estimator_stale()) << "paused";
+  EXPECT_TRUE(status.estimator_converged());
+  EXPECT_EQ(status.imu_publishers_alive(), 1u);
+  // ... but a vanished one is (its IMU writer's DDS liveliness lapsed): stale, and the policy.
+  core_->OnPoll(MonotonicNowNs(), 0);
+  status = GetStatus();
+  EXPECT_TRUE(status.estimator_stale());
+  EXPECT_FALSE(status.estimator_converged());
+  EXPECT_FALSE(status.armed());
+  EXPECT_EQ(status.imu_timeouts(), 1u);
+  EXPECT_NE(status.last_error().find("the IMU's publisher (the simulator) is gone"),
+            std::string::npos)
+      << status.last_error();
+  EXPECT_GE(status.last_error_age_s(), 0.0);
+  EXPECT_LT(status.last_error_age_s(), 5.0);
+  EXPECT_TRUE(status.has_imu_age_s());
+  EXPECT_TRUE(status.has_pose_age_s());
+  EXPECT_FALSE(sink_.last().armed) << "said on the wire";
 }
 
 // ---- Deadlines and the loopback port

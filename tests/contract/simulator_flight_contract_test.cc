@@ -591,11 +591,15 @@ TEST_F(SimulatorFlightContractTest, ALockstepTimeoutPausesAndTheStepIsPublishedA
       StartsWith(s.last_error(), "lock-step: no valid actuator command for step 0 (t_ns 0)"))
       << s.last_error();
   EXPECT_TRUE(StartsWith(s.pause_reason(), "lock-step timeout")) << s.pause_reason();
+  EXPECT_GT(s.last_error_age_s(), 0.0);
+  EXPECT_LT(s.last_error_age_s(), 10.0);
   // The controller is back: the step is published again and the flight goes on.
   io_.SetMode(FakeFlightIo::Mode::kMotorsOff);
   ASSERT_TRUE(Start(0.5).ok());
   s = WaitStopped();
   ASSERT_EQ(s.state(), v1::FLIGHT_STATE_PAUSED) << s.last_error();
+  EXPECT_EQ(s.last_error(), "") << "the next run clears the previous run's error";
+  EXPECT_EQ(s.last_error_age_s(), 0.0);
   EXPECT_EQ(s.steps(), 50u);
   EXPECT_EQ(s.imu_published(), 51u);  // step 0 twice
   int step0 = 0;
@@ -658,7 +662,8 @@ TEST_F(SimulatorFlightContractTest, RealTimeStaleOrMissingCommandsMeanMotorsOff)
 // The vehicle's own failsafe (mav/sim/failsafe.h): real time, the autopilot hovering at the
 // take-off point (1 m) falls silent at 10 s; the failsafe takes over after command_stale_s, holds
 // the vehicle level and lands it (a landing, not a ground collision), then stops the motors; the
-// status says so. Commands coming back hand the vehicle back.
+// status says so. Disarmed commands (a restarted controller not armed yet) do not hand the
+// vehicle back: only armed ones would.
 TEST_F(SimulatorFlightContractTest, RealTimeSilenceInTheAirIsFlownByTheFailsafe) {
   ASSERT_NO_FATAL_FAILURE(FlyWithTheAutopilot("t3_1"));
   ASSERT_TRUE(LoadBuiltin("t3_1", /*lockstep=*/false).ok());
@@ -677,6 +682,12 @@ TEST_F(SimulatorFlightContractTest, RealTimeSilenceInTheAirIsFlownByTheFailsafe)
   EXPECT_EQ(s.failsafe_engagements(), 1u);
   EXPECT_NEAR(s.failsafe_s(), 0.9, 0.05);  // from 100 ms after the last command
   EXPECT_NEAR(s.truth().velocity().z(), -0.4, 0.15);
+  io_.SetMode(FakeFlightIo::Mode::kMotorsOff);  // a controller that is not armed
+  ASSERT_TRUE(Start(11.5).ok());
+  s = WaitStopped();
+  EXPECT_TRUE(s.failsafe_active()) << "disarmed commands do not stop the rotors in the air";
+  EXPECT_EQ(s.failsafe_engagements(), 1u);
+  EXPECT_NEAR(s.truth().velocity().z(), -0.4, 0.15) << "descending, not falling";
   ASSERT_TRUE(Start(16).ok());
   s = WaitStopped();
   EXPECT_FALSE(s.failsafe_active()) << "landed: the failsafe is done, motors off";

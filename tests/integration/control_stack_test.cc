@@ -269,6 +269,52 @@ class ControlStackTest : public ::testing::Test {
     return ctl_->Hover(&context, request, &s);
   }
 
+  // Real time: loads `request`, configures mav-control for t3_1, starts the flight once the two
+  // have discovered each other, arms as soon as the estimator has converged and takes off to
+  // `hover` (by `give_up` at the latest).
+  void FlyInRealTime(const v1::LoadFlightTaskRequest& request, const Eigen::Vector3d& hover,
+                     std::chrono::steady_clock::time_point give_up) {
+    v1::FlightStatus loaded;
+    ASSERT_NO_FATAL_FAILURE(LoadFlightTask(request, 10, &loaded));
+    ConfigureFor("t3_1", /*lockstep=*/false);
+    while (FlightStatus().actuator_writers() == 0 && std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the IMU and pose readers
+    {
+      grpc::ClientContext context;
+      context.set_deadline(Deadline(5));
+      v1::FlightStatus s;
+      ASSERT_TRUE(sim_->StartFlight(&context, v1::StartFlightRequest(), &s).ok());
+    }
+    while (!ControlStatus().estimator_converged() && std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ASSERT_NO_FATAL_FAILURE(Arm());
+    ASSERT_TRUE(Hover(hover).ok());
+  }
+  // Kills the simulator and waits (wall clock) until mav-control reports the loss: the estimate
+  // stale, not converged, no IMU publisher alive, last_error naming it, and (lock-step or not)
+  // disarmed. Returns the wall seconds it took (<= 1 s expected), or a large value.
+  double KillTheSimulatorAndTimeTheReport() {
+    simulator_->Signal(SIGKILL);
+    const int64_t killed_ns = MonotonicNowNs();
+    v1::ControlStatus c;
+    while (NsToSeconds(MonotonicNowNs() - killed_ns) < 5.0) {
+      c = ControlStatus();
+      if (c.estimator_stale() && !c.armed()) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    const double took_s = NsToSeconds(MonotonicNowNs() - killed_ns);
+    EXPECT_TRUE(c.estimator_stale());
+    EXPECT_FALSE(c.estimator_converged()) << "a stale estimate is not claimed converged";
+    EXPECT_EQ(c.imu_publishers_alive(), 0u);
+    EXPECT_FALSE(c.armed());
+    EXPECT_NE(c.last_error().find("gone"), std::string::npos) << c.last_error();
+    EXPECT_LT(c.last_error_age_s(), 5.0);
+    return took_s;
+  }
+
   int64_t domain_ = 0;
   std::string sim_target_, ctl_target_, sim_log_, ctl_log_;
   std::unique_ptr<Child> simulator_, control_;
@@ -379,6 +425,11 @@ TEST_F(ControlStackTest, HoverInsideTheContestLimitsThenFlyALegWithoutCollision)
             << c.step_ms().p95_ms() << " ms; loop (sample in -> command written) mean "
             << c.loop_ms().mean_ms() << " ms, p95 " << c.loop_ms().p95_ms() << " ms\n"
             << "test wall time " << NsToSeconds(MonotonicNowNs() - test_start_ns) << " s\n";
+  // A lock-stepped controller whose simulator vanished (not paused) says so within 1 s.
+  const double report_s = KillTheSimulatorAndTimeTheReport();
+  EXPECT_LT(report_s, 1.0);
+  std::cout << "lock-step: the simulator SIGKILLed, mav-control reported it in " << report_s
+            << " s\n";
   RecordProperty("hover_position_rms_m", std::to_string(score.position_rms_m()));
   RecordProperty("hover_angular_rate_rms_radps", std::to_string(score.angular_rate_rms_radps()));
   RecordProperty("lockstep_speed_factor", std::to_string(s.speed_factor()));
@@ -515,32 +566,12 @@ TEST_F(ControlStackTest, PlannedT4_3LegFlownThroughThePlanningService) {
 // a landing, motors off (docs/contracts.md). Before the failsafe the vehicle fell and hit the
 // ground at ~4 m/s.
 TEST_F(ControlStackTest, InRealTimeAKilledControllerLeavesTheVehicleToItsFailsafe) {
-  {
-    v1::LoadFlightTaskRequest request;
-    request.set_builtin("t3_1");
-    request.set_seed(1001);
-    request.set_real_time_factor(5);
-    v1::FlightStatus loaded;
-    ASSERT_NO_FATAL_FAILURE(LoadFlightTask(request, 10, &loaded));
-  }
-  ConfigureFor("t3_1", /*lockstep=*/false);
+  v1::LoadFlightTaskRequest request;
+  request.set_builtin("t3_1");
+  request.set_seed(1001);
+  request.set_real_time_factor(5);
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(15);
-  while (FlightStatus().actuator_writers() == 0 && std::chrono::steady_clock::now() < give_up) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the IMU and pose readers
-  {
-    grpc::ClientContext context;
-    context.set_deadline(Deadline(5));
-    v1::FlightStatus s;
-    ASSERT_TRUE(sim_->StartFlight(&context, v1::StartFlightRequest(), &s).ok());
-  }
-  // Arm as soon as the estimator has converged, take off, hover.
-  while (!ControlStatus().estimator_converged() && std::chrono::steady_clock::now() < give_up) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  Arm();
-  ASSERT_TRUE(Hover(Eigen::Vector3d(0, 0, 1)).ok());
+  ASSERT_NO_FATAL_FAILURE(FlyInRealTime(request, Eigen::Vector3d(0, 0, 1), give_up));
   auto wait_for_time = [&](double t_s) {
     v1::FlightStatus s = FlightStatus();
     while (NsToSeconds(s.t_ns()) < t_s && s.state() == v1::FLIGHT_STATE_RUNNING &&
@@ -569,6 +600,84 @@ TEST_F(ControlStackTest, InRealTimeAKilledControllerLeavesTheVehicleToItsFailsaf
       << "a landing, not a collision: " << (s.collisions_size() > 0 ? s.collisions(0).what() : "");
   std::cout << "real time x5: the controller killed at 1 m; the failsafe flew " << s.failsafe_s()
             << " s and landed the vehicle, z = " << s.position().z() << " m, no collision\n";
+}
+
+// Real time (x1): hovering at 2 m, mav-control SIGKILLed; the vehicle's failsafe descends it; 1 s
+// later mav-control is restarted with --task t3_1 --takeover: it initialises its estimator from
+// the live streams and arms in the air. The vehicle must never come near the ground and hover
+// again within 3 s of the restart. Then the simulator is killed: mav-control reports the loss
+// (stale, not converged) within 1 s.
+TEST_F(ControlStackTest, InRealTimeARestartedControllerTakesOverTheVehicleInTheAir) {
+  v1::LoadFlightTaskRequest request;
+  request.set_yaml(kTaskYaml);
+  request.set_seed(1003);
+  request.set_real_time_factor(1);
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(40);
+  ASSERT_NO_FATAL_FAILURE(FlyInRealTime(request, Eigen::Vector3d(0, 0, 2), give_up));
+  v1::FlightStatus s = FlightStatus();
+  while (NsToSeconds(s.t_ns()) < 11.0 && std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    s = FlightStatus();
+  }
+  ASSERT_EQ(s.state(), v1::FLIGHT_STATE_RUNNING);
+  ASSERT_NEAR(s.position().z(), 2.0, 0.15) << "hovering at 2 m";
+
+  control_->Signal(SIGKILL);
+  const double killed_at_s = NsToSeconds(s.t_ns());
+  double min_z = s.position().z();
+  auto watch_until = [&](double wall_s) {
+    const int64_t until_ns = MonotonicNowNs() + static_cast<int64_t>(wall_s * 1e9);
+    while (MonotonicNowNs() < until_ns) {
+      s = FlightStatus();
+      min_z = std::min(min_z, s.position().z());
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  };
+  watch_until(1.0);
+  EXPECT_TRUE(s.failsafe_active()) << "the vehicle's own failsafe flies it";
+  ASSERT_EQ(control_->Wait(std::chrono::milliseconds(1000)), 128 + SIGKILL);
+  const int ctl_port = std::stoi(ctl_target_.substr(ctl_target_.rfind(':') + 1));
+  control_ = std::make_unique<Child>(
+      std::vector<std::string>{kBinDir + "/mav-control", "--port", std::to_string(ctl_port),
+                               "--dds-domain", std::to_string(domain_), "--task", "t3_1",
+                               "--takeover"},
+      ctl_log_ + ".restarted");
+  const double restarted_at_s = NsToSeconds(FlightStatus().t_ns());
+  watch_until(3.0);
+  const double z_back = s.position().z();
+  const Eigen::Vector3d v(s.truth().velocity().x(), s.truth().velocity().y(),
+                          s.truth().velocity().z());
+  const v1::ControlStatus c = ControlStatus();
+  EXPECT_TRUE(c.armed()) << c.last_error() << " (see " << ctl_log_ << ".restarted)";
+  EXPECT_EQ(c.mode(), v1::CONTROL_MODE_HOVER);
+  EXPECT_FALSE(c.takeover_pending());
+  EXPECT_FALSE(c.estimator_stale());
+  v1::ControlState state;
+  {
+    grpc::ClientContext context;
+    context.set_deadline(Deadline(5));
+    ASSERT_TRUE(ctl_->GetState(&context, v1::ControlGetStateRequest(), &state).ok());
+  }
+  EXPECT_FALSE(state.moving()) << "the stop trajectory is flown: holding";
+  const Eigen::Vector3d hold(state.reference().position().x(), state.reference().position().y(),
+                             state.reference().position().z());
+  const Eigen::Vector3d p_true(s.position().x(), s.position().y(), s.position().z());
+  EXPECT_LT((p_true - hold).norm(), 0.15) << "at the hold point";
+  EXPECT_FALSE(s.failsafe_active()) << "the restarted controller flies it";
+  EXPECT_EQ(s.failsafe_engagements(), 1u);
+  EXPECT_LT(v.norm(), 0.15) << "hovering again 3 s after the restart";
+  EXPECT_GT(min_z, 0.6) << "never near the ground";
+  EXPECT_EQ(s.collisions_size(), 0);
+  std::cout << "real time x1: mav-control killed at " << killed_at_s << " s at 2 m, restarted at "
+            << restarted_at_s << " s (--takeover); the failsafe flew " << s.failsafe_s()
+            << " s; lowest " << min_z << " m; 3 s after the restart at " << z_back << " m, "
+            << (p_true - hold).norm() << " m from the hold, speed " << v.norm() << " m/s\n";
+  RecordProperty("takeover_min_z_m", std::to_string(min_z));
+
+  const double report_s = KillTheSimulatorAndTimeTheReport();
+  EXPECT_LT(report_s, 1.0);
+  std::cout << "real time: the simulator SIGKILLed, mav-control reported it in " << report_s
+            << " s\n";
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "mav/control/autopilot.h"
 
 #include <cmath>
+#include <cstdio>
 
 #include "mav/common/time.h"
 
@@ -68,6 +69,13 @@ bool AutopilotOptions::IsValid(std::string* why) const {
     return fail("gust_threshold_mps2: must be positive");
   }
   if (!(gust_hold_s >= 0 && std::isfinite(gust_hold_s))) return fail("gust_hold_s: must be >= 0");
+  if (rest_z_m && !std::isfinite(*rest_z_m)) return fail("rest_z_m: must be finite");
+  if (!(takeover_min_height_m >= 0 && std::isfinite(takeover_min_height_m))) {
+    return fail("takeover_min_height_m: must be >= 0");
+  }
+  if (!(takeover_settle_s >= 0 && takeover_settle_s <= 10)) {
+    return fail("takeover_settle_s: must be in [0, 10]");
+  }
   if (!prefixed("allocation.", allocation.FitsVehicle(vehicle, w))) return false;
   return true;
 }
@@ -293,9 +301,51 @@ Status Autopilot::Arm() {
     return Status::FailedPrecondition("no fresh pose");
   }
   const EstimatorState& x = estimator_.state();
+  ArmAt(x, x.p_world.z());
+  return Status::Ok();
+}
+
+bool Autopilot::ReadyForTakeover() const {
+  return estimator_.initialized() &&
+         now_ns_ - estimator_.initialized_t_ns() >= SecondsToNs(options_.takeover_settle_s) &&
+         now_ns_ - last_pose_arrival_ns_ <= SecondsToNs(options_.pose_timeout_s);
+}
+
+Status Autopilot::ArmInAir() {
+  if (armed_) return Status::FailedPrecondition("already armed");
+  if (!options_.rest_z_m) {
+    return Status::FailedPrecondition(
+        "in the air: the configuration does not say where the ground is (rest_z_m)");
+  }
+  if (!ReadyForTakeover()) {
+    return Status::FailedPrecondition("in the air: the estimator has not merged poses for " +
+                                      std::to_string(options_.takeover_settle_s) +
+                                      " s yet, or none is fresh");
+  }
+  const EstimatorState& x = estimator_.state();
+  const double height = x.p_world.z() - *options_.rest_z_m;
+  if (height < options_.takeover_min_height_m) {
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "in the air: the vehicle is %.2f m above its resting height, not airborne "
+                  "(%.2f m needed): on the ground, Arm",
+                  height, options_.takeover_min_height_m);
+    return Status::FailedPrecondition(text);
+  }
+  ArmAt(x, *options_.rest_z_m);
+  // The rotors are turning already (the vehicle's own failsafe holds it up): the observer's
+  // motor model starts at the hover speed, not at rest, or it would read gravity as a wind.
+  const VehicleParameters& veh = options_.vehicle;
+  motor_model_.setConstant(
+      std::sqrt(veh.mass_kg * kGravity / (veh.rotor_count * veh.thrust_constant)));
+  command_ = motor_model_;
+  return Status::Ok();
+}
+
+void Autopilot::ArmAt(const EstimatorState& x, double ground_z_m) {
   const Eigen::Matrix3d R = x.q_world_body.toRotationMatrix();
   controller_->Reset();
-  arm_z_ = x.p_world.z();
+  arm_z_ = ground_z_m;  // the disturbance observer acts once 0.15 m above it
   disturbance_.setZero();
   disturbance_slow_.setZero();
   gust_until_ns_ = 0;
@@ -307,7 +357,6 @@ Status Autopilot::Arm() {
   saturated_ = false;
   sum_position_sq_ = sum_rate_sq_ = 0;
   rms_count_ = 0;
-  return Status::Ok();
 }
 
 void Autopilot::Disarm() {

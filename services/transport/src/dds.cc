@@ -232,6 +232,10 @@ Qos& Qos::TransientLocal() {
   dds_qset_durability(qos_, DDS_DURABILITY_TRANSIENT_LOCAL);
   return *this;
 }
+Qos& Qos::Liveliness(int64_t lease_ns) {
+  dds_qset_liveliness(qos_, DDS_LIVELINESS_AUTOMATIC, lease_ns);
+  return *this;
+}
 Qos Qos::SensorStream() {
   Qos qos;
   qos.Reliable(DDS_SECS(1)).KeepLast(4).Volatile();
@@ -340,7 +344,8 @@ Result<dds_entity_t> CreateReader(const Participant& participant, dds_entity_t t
   const dds_entity_t reader = dds_create_reader(participant.handle(), topic, qos.get(), nullptr);
   if (reader < 0) return DdsStatus(reader, "dds_create_reader(" + name + ")");
   Entity reader_guard(reader);
-  (void)dds_set_status_mask(reader, DDS_SUBSCRIPTION_MATCHED_STATUS);
+  (void)dds_set_status_mask(reader,
+                            DDS_SUBSCRIPTION_MATCHED_STATUS | DDS_LIVELINESS_CHANGED_STATUS);
   *read_condition = dds_create_readcondition(reader, DDS_ANY_STATE);
   if (*read_condition < 0) {
     return DdsStatus(*read_condition, "dds_create_readcondition(" + name + ")");
@@ -367,6 +372,13 @@ Result<uint32_t> MatchedWriters(dds_entity_t reader, const std::string& name) {
   MAV_RETURN_IF_ERROR(DdsStatus(dds_get_subscription_matched_status(reader, &status),
                                 "dds_get_subscription_matched_status(" + name + ")"));
   return status.current_count;
+}
+
+Result<uint32_t> AliveWriters(dds_entity_t reader, const std::string& name) {
+  dds_liveliness_changed_status_t status;
+  MAV_RETURN_IF_ERROR(DdsStatus(dds_get_liveliness_changed_status(reader, &status),
+                                "dds_get_liveliness_changed_status(" + name + ")"));
+  return status.alive_count;
 }
 
 Status WaitForMatch(dds_entity_t entity, bool is_writer, uint32_t count, int64_t timeout_ns,

@@ -4,8 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <iostream>
+
 #include "mav/common/time.h"
 #include "mav/eval/flight_mission.h"
+#include "mav/sim/failsafe.h"
 #include "mav/sim/flight_simulation.h"
 #include "mav/sim/flight_task.h"
 
@@ -18,6 +21,10 @@ struct Loop {
   Autopilot ap;
   bool feed_poses = true;
   bool feed_imu = true;
+  // Set: the vehicle's own failsafe flies it while the autopilot is disarmed (the simulator's
+  // real-time mode after its controller died).
+  const sim::DescentFailsafe* failsafe = nullptr;
+  double min_z = 1e9;  // lowest true height since the last reset
 
   static Loop Make(const std::string& task, uint64_t seed = 11) {
     const dataset::FlightTask t = *sim::BuiltinFlightTask(task);
@@ -49,7 +56,9 @@ struct Loop {
     }
     sim::RotorVector c(6);
     for (int i = 0; i < 6; ++i) c[i] = command[i];
+    if (failsafe && !ap.armed()) c = failsafe->Command(sim.vehicle().state());
     last_ = &sim.Step(c);
+    min_z = std::min(min_z, last_->truth.p_world.z());
     return *last_;
   }
   const sim::FlightStep* last_ = nullptr;
@@ -147,6 +156,71 @@ TEST(AutopilotTest, PoseLossMeansFailsafeDescentAndImuLossMeansMotorsOff) {
   loop.RunUntil(17.15);
   EXPECT_FALSE(loop.ap.status().armed);
   EXPECT_EQ(loop.ap.status().imu_timeouts, 1u);
+}
+
+// A controller restarted mid-flight (issue: a killed mav-control): a fresh autopilot, fed from the
+// moment the old one died while the vehicle's own failsafe descends it at 0.4 m/s, arms in the
+// air once its estimate settled and holds the vehicle where it is.
+TEST(AutopilotTest, AFreshAutopilotTakesOverAVehicleInTheAir) {
+  Loop loop = Loop::Make("t3_1");
+  const dataset::FlightTask task = *sim::BuiltinFlightTask("t3_1");
+  AutopilotOptions options = eval::AutopilotOptionsForTask(task, ControllerType::kPaper);
+  EXPECT_EQ(loop.ap.ArmInAir().code(), StatusCode::kFailedPrecondition) << "rest_z_m unset";
+  loop.RunUntil(6.0);
+  ASSERT_TRUE(loop.ap.Arm().ok());
+  ASSERT_TRUE(loop.ap.Hover(Eigen::Vector3d(0, 0, 2), 0).ok());
+  loop.RunUntil(12.0);
+  // The controller dies: the failsafe flies; 1 s later a new one starts and is fed.
+  const sim::DescentFailsafe failsafe = *sim::DescentFailsafe::Create(loop.sim.vehicle().params());
+  loop.failsafe = &failsafe;
+  loop.ap.Disarm();
+  loop.RunUntil(13.0);
+  options.rest_z_m = task.spawn_position.z();
+  loop.ap = *Autopilot::Create(options);
+  loop.min_z = 1e9;
+  loop.RunUntil(13.2);
+  EXPECT_FALSE(loop.ap.ReadyForTakeover());
+  const Status early = loop.ap.ArmInAir();
+  EXPECT_EQ(early.code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(early.message().find("0.5"), std::string::npos) << early.message();
+  double t_s = 13.2;
+  while (!loop.ap.ReadyForTakeover() && t_s < 15.0) loop.RunUntil(t_s += 0.005);
+  const double armed_at_s = t_s;
+  ASSERT_TRUE(loop.ap.ArmInAir().ok());
+  EXPECT_LT(armed_at_s, 13.7) << "0.5 s of poses after the first one";
+  EXPECT_EQ(loop.ap.mode(), FlightMode::kHover);
+  const Eigen::Vector3d armed_at = loop.ap.estimator().state().p_world;
+  const sim::FlightStep& out = loop.RunUntil(16.0);  // 3 s after the restart
+  const Eigen::Vector3d hold = loop.ap.state().reference.position;
+  EXPECT_FALSE(loop.ap.moving());
+  EXPECT_LT((hold - armed_at).norm(), 1e-9) << "holds where it took over";
+  EXPECT_GT(loop.min_z, 1.0) << "never near the ground";
+  EXPECT_LT(out.truth.v_world.norm(), 0.1) << "hovering again";
+  EXPECT_LT((out.truth.p_world - hold).norm(), 0.1);
+  EXPECT_GT(hold.z(), 1.2);
+  EXPECT_EQ(loop.ap.status().pose_timeouts, 0u);
+  std::cout << "takeover: armed in the air " << armed_at_s - 13.0 << " s after the restart at "
+            << armed_at.z() << " m, stopped at " << hold.z() << " m; lowest " << loop.min_z
+            << " m; 3 s after the restart " << (out.truth.p_world - hold).norm()
+            << " m from the hold, speed " << out.truth.v_world.norm() << " m/s\n";
+}
+
+// On the ground a takeover is refused (the failsafe landed it, or it never flew): Arm is the way.
+TEST(AutopilotTest, TakeoverIsRefusedOnTheGround) {
+  const dataset::FlightTask task = *sim::BuiltinFlightTask("t3_1");
+  Loop loop = Loop::Make("t3_1");
+  AutopilotOptions options = eval::AutopilotOptionsForTask(task, ControllerType::kPaper);
+  options.rest_z_m = task.spawn_position.z();
+  loop.ap = *Autopilot::Create(options);
+  loop.RunUntil(1.0);
+  ASSERT_TRUE(loop.ap.ReadyForTakeover());
+  const Status refused = loop.ap.ArmInAir();
+  EXPECT_EQ(refused.code(), StatusCode::kFailedPrecondition);
+  EXPECT_NE(refused.message().find("not airborne"), std::string::npos) << refused.message();
+  EXPECT_FALSE(loop.ap.armed());
+  options.takeover_settle_s = -1;
+  EXPECT_NE(Autopilot::Create(options).status().message().find("takeover_settle_s"),
+            std::string::npos);
 }
 
 TEST(AutopilotTest, OptionsNameTheBadField) {

@@ -8,7 +8,8 @@
 //   for each pose arrival: ap.FeedPose(pose);                      // stamped, possibly late
 //   ap.Arm(); ap.Hover(p, yaw); ap.SetTrajectory(trajectory, start_t_ns, offset, allow_jump);
 //
-// Modes: kDisarmed (zero rotor speeds) -> Arm() (only once the estimator converged) -> kHover
+// Modes: kDisarmed (zero rotor speeds) -> Arm() (only once the estimator converged; or, for a
+// restarted controller taking over a vehicle in the air, ArmInAir()) -> kHover
 // (hold the current position, or fly a smooth GoTo to a commanded one) / kTrajectory (follow a
 // PolynomialTrajectory from its start time, hover at its end) -> kFailsafe when an input goes
 // stale: no pose for pose_timeout_s -> hold the attitude level on the IMU and descend at
@@ -83,6 +84,14 @@ struct AutopilotOptions {
   std::optional<PaperControllerGains> gust_gains;
   double gust_threshold_mps2 = 0.6;
   double gust_hold_s = 3.0;
+  // Taking over a vehicle in the air (ArmInAir: a controller restarted mid-flight). The body's
+  // height resting on its legs on the ground (a flight task's spawn height); unset = unknown,
+  // and ArmInAir is refused. Airborne = the estimate at least takeover_min_height_m above it.
+  std::optional<double> rest_z_m;
+  double takeover_min_height_m = 0.3;
+  // The estimate must have merged poses for this long since its first one (its velocity and
+  // tilt are then known to a few cm/s and a degree; the offsets are learnt in the air).
+  double takeover_settle_s = 0.5;
   // (s + 4)^3 translational poles, planar loop 16 rad/s / 0.8.
   static PaperControllerGains GustGains();
 
@@ -137,6 +146,15 @@ class Autopilot {
 
   // FailedPrecondition when already armed or the estimator has not converged.
   Status Arm();
+  // Takes over a vehicle that is already flying (the previous controller died, the vehicle's
+  // own failsafe is descending it): holds the position where it is (kHover; the controller
+  // brakes from the estimated velocity), with the disturbance observer on from the start.
+  // FailedPrecondition when already armed, rest_z_m is unset, the estimator has merged poses for
+  // less than takeover_settle_s or none is fresh, or the estimate is not airborne (the message says
+  // which; on the ground, Arm() is the way).
+  Status ArmInAir();
+  // Whether ArmInAir could be tried now: initialised for takeover_settle_s with a fresh pose.
+  bool ReadyForTakeover() const;
   void Disarm();
   // Smooth move to (position, yaw) at goto_limits, then hold. FailedPrecondition when disarmed
   // or without a fresh pose in failsafe; InvalidArgument for a non-finite position.
@@ -177,6 +195,7 @@ class Autopilot {
   void StartHold(const Eigen::Vector3d& position, double yaw_rad);
   void UpdateDisturbance(const EstimatorState& x, double dt_s);
   void ScheduleGains();
+  void ArmAt(const EstimatorState& x, double ground_z_m);
 
   AutopilotOptions options_;
   Estimator estimator_;

@@ -138,6 +138,8 @@ class Estimator {
   Status FeedPose(const PoseMeasurement& pose);
 
   bool initialized() const { return initialized_; }
+  // The IMU time the first pose initialised the estimate at (0 before).
+  int64_t initialized_t_ns() const { return initialized_ ? init_t_ns_ : 0; }
   // Initialised for at least converge_s.
   bool converged() const;
   const EstimatorState& state() const { return current_; }

@@ -33,6 +33,11 @@
 //                        (best effort loses samples on overrun, e.g. a full socket buffer).
 // Reliability is request/offered compatible: a RELIABLE writer serves both reliable and
 // best-effort readers; history depth is local to each side.
+// Liveliness: a writer whose death its readers must see fast (the simulator's IMU: mav-control
+// must tell a vanished simulator from a paused one) offers AUTOMATIC liveliness with a short
+// lease (Qos::Liveliness); readers keep the default (AUTOMATIC, infinite), which any offer
+// satisfies, and count the writers alive (Reader::AliveWriters). Without it a SIGKILLed peer is
+// noticed only when its participant's lease (Cyclone's default: 10 s) runs out.
 
 #include <cstdint>
 #include <memory>
@@ -112,6 +117,8 @@ class Qos {
   Qos& KeepAll();
   Qos& Volatile();
   Qos& TransientLocal();
+  // AUTOMATIC liveliness with this lease: the participant asserts it while the process lives.
+  Qos& Liveliness(int64_t lease_ns);
 
   static Qos SensorStream();
   static Qos HighRate();
@@ -175,6 +182,7 @@ Result<dds_entity_t> CreateReader(const Participant& participant, dds_entity_t t
                                   dds_entity_t* read_condition, dds_entity_t* waitset);
 Result<uint32_t> MatchedReaders(dds_entity_t writer, const std::string& name);
 Result<uint32_t> MatchedWriters(dds_entity_t reader, const std::string& name);
+Result<uint32_t> AliveWriters(dds_entity_t reader, const std::string& name);
 Status WaitForMatch(dds_entity_t entity, bool is_writer, uint32_t count, int64_t timeout_ns,
                     const std::string& name);
 Result<bool> WaitForData(dds_entity_t waitset, int64_t timeout_ns, const std::string& name);
@@ -303,6 +311,9 @@ class Reader : public Entity {
     return internal::WaitForData(waitset_.handle(), timeout_ns, name_);
   }
   Result<uint32_t> MatchedWriters() const { return internal::MatchedWriters(handle(), name_); }
+  // Matched writers whose liveliness is asserted now (a writer whose lease ran out, or whose
+  // process died, no longer counts).
+  Result<uint32_t> AliveWriters() const { return internal::AliveWriters(handle(), name_); }
   Status WaitForWriters(uint32_t count, int64_t timeout_ns) const {
     return internal::WaitForMatch(handle(), false, count, timeout_ns, name_);
   }

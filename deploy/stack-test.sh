@@ -213,7 +213,13 @@ begin "2 host build and the debian:bookworm base image"
 "$repo/deploy/setup.sh" > "$out/logs/setup.log" 2>&1 || fail "deploy/setup.sh failed (log: $out/logs/setup.log)"
 base_note="present"
 if ! podman image exists debian:bookworm; then
-  mirror="${DEBIAN_MIRROR:-$(grep -hoE '^(URIs:|deb) +https?://[^ ]+' /etc/apt/sources.list.d/*.sources /etc/apt/sources.list 2>/dev/null | grep -v security | head -1 | awk '{print $2}')}"
+  # apt's first non-security mirror (deb822 .sources or the one-line sources.list; either file
+  # may be missing, which must not end the script under pipefail).
+  mirror="${DEBIAN_MIRROR:-}"
+  if [[ -z "$mirror" ]]; then
+    mirror="$(cat /etc/apt/sources.list.d/*.sources /etc/apt/sources.list 2>/dev/null |
+      grep -oE '^(URIs:|deb) +https?://[^ ]+' | grep -v security | head -1 | awk '{print $2}' || true)"
+  fi
   mirror="${mirror:-http://deb.debian.org/debian}"
   echo "making debian:bookworm with debootstrap --variant=minbase from $mirror"
   debootstrap --variant=minbase bookworm "$work/rootfs" "$mirror" > "$out/logs/debootstrap.log" 2>&1 ||

@@ -828,7 +828,19 @@ TEST_F(MappingContractTest, AnInsertPastItsDeadlineChangesNothing) {
   std::thread other([this] {
     for (size_t i = 0; i < 6; ++i) EXPECT_TRUE(Insert(KeyframeRequest(i, true)).ok());
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  // Until the worker is on the other client's second keyframe (selected = counted, then
+  // submitted): a fixed sleep let a loaded machine send the late frame to an idle worker.
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < give_up) {
+    grpc::ClientContext poll;
+    v1::MappingStatus s;
+    // (No ASSERT here: the other thread must be joined.)
+    if (!stub_->GetStatus(&poll, v1::MappingGetStatusRequest(), &s).ok() || s.keyframes() >= 2) {
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(10));
   // Later than all of the other client's frames, and it waits behind the one in progress.
   v1::InsertKeyframeRequest late = KeyframeRequest(9, true);
   grpc::ClientContext context;

@@ -397,9 +397,10 @@ std::optional<sim::RotorVector> Flight::Checked(const ActuatorInput& input, int 
 Flight::FailsafePhase Flight::NextFailsafePhase(FailsafePhase before, bool stale, bool on_ground) {
   if (!stale) return FailsafePhase::kOff;
   if (before == FailsafePhase::kLanded) return FailsafePhase::kLanded;  // until fresh commands
-  // Stale on the ground before any flight: motors off, no failsafe.
-  if (on_ground)
+  // On the ground a descent ends in a landing; stale before any flight: motors off, no failsafe.
+  if (on_ground) {
     return before == FailsafePhase::kDescending ? FailsafePhase::kLanded : FailsafePhase::kOff;
+  }
   return FailsafePhase::kDescending;
 }
 

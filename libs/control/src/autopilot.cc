@@ -317,15 +317,17 @@ Status Autopilot::ArmInAir() {
     return Status::FailedPrecondition(
         "in the air: the configuration does not say where the ground is (rest_z_m)");
   }
+  char text[160];
   if (!ReadyForTakeover()) {
-    return Status::FailedPrecondition("in the air: the estimator has not merged poses for " +
-                                      std::to_string(options_.takeover_settle_s) +
-                                      " s yet, or none is fresh");
+    std::snprintf(text, sizeof(text),
+                  "in the air: the estimator has not merged poses for %.2f s yet, or none is "
+                  "fresh",
+                  options_.takeover_settle_s);
+    return Status::FailedPrecondition(text);
   }
   const EstimatorState& x = estimator_.state();
   const double height = x.p_world.z() - *options_.rest_z_m;
   if (height < options_.takeover_min_height_m) {
-    char text[160];
     std::snprintf(text, sizeof(text),
                   "in the air: the vehicle is %.2f m above its resting height, not airborne "
                   "(%.2f m needed): on the ground, Arm",

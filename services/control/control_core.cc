@@ -266,7 +266,7 @@ void ControlCore::RejectPose(const std::string& why) {
 
 void ControlCore::OnPoll(int64_t now_wall_ns, uint32_t imu_publishers_alive) {
   std::lock_guard<std::mutex> lock(mutex_);
-  const bool lost = imu_publisher_seen_ && imu_publishers_alive == 0 && imu_publishers_alive_ > 0;
+  const bool lost = imu_publishers_alive == 0 && imu_publishers_alive_ > 0;  // was alive
   imu_publishers_alive_ = imu_publishers_alive;
   if (imu_publishers_alive > 0) imu_publisher_seen_ = true;
   if (lost) {

@@ -99,7 +99,8 @@ const char* ModeText(v1::ControlMode mode) {
 
 void PrintStats(const char* label, const v1::RuntimeStats& s) {
   std::cout << label << "mean " << s.mean_ms() << " ms, median " << s.median_ms() << " ms, p95 "
-            << s.p95_ms() << " ms, max " << s.max_ms() << " ms (" << s.count() << ")\n";
+            << s.p95_ms() << " ms, p99 " << s.p99_ms() << " ms, max " << s.max_ms() << " ms ("
+            << s.count() << ")\n";
 }
 
 // "2.35 s" (two decimals).
@@ -136,6 +137,14 @@ void PrintControlStatus(const v1::ControlStatus& s) {
             << s.angular_rate_rms_radps() << " rad/s (estimate vs reference, since Arm)\n";
   PrintStats("step:       ", s.step_ms());
   PrintStats("loop:       ", s.loop_ms());
+  if (s.pose_latency().total().count() > 0) {
+    const v1::PoseLatency& l = s.pose_latency();
+    PrintStats("vision pose, capture -> estimator: ", l.total());
+    PrintStats("  frame over DDS:    ", l.frame_transport());
+    PrintStats("  localization:      ", l.localization());
+    PrintStats("  pose over DDS:     ", l.pose_transport());
+    PrintStats("  into the estimator:", l.merge());
+  }
   if (!s.last_error().empty()) {
     std::cout << "last error (" << Seconds(s.last_error_age_s()) << " ago): " << s.last_error()
               << "\n";

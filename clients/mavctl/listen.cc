@@ -1,10 +1,13 @@
 #include "clients/mavctl/listen.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <iomanip>
+#include <mutex>
 #include <optional>
 #include <ostream>
+#include <thread>
 
 #include "mav_sensors.h"
 #include "mav_state.h"
@@ -120,7 +123,11 @@ struct Received {
   int width = 0;
   int height = 0;
   std::vector<double> latencies_ms;  // publish -> receive of every stereo frame
-  double bytes = 0.0;                // image bytes of every stereo frame
+  // The two hops of it: the publisher's stamp -> its dds_write (the sample's source timestamp),
+  // and dds_write -> the take here (DDS: serialisation, transport, delivery, the wake-up).
+  std::vector<double> publisher_ms;
+  std::vector<double> dds_ms;
+  double bytes = 0.0;  // image bytes of every stereo frame
 };
 
 // True once the count of the main topic (stereo if selected, else imu, else ground truth)
@@ -132,11 +139,16 @@ bool TargetReached(const ListenOptions& options, const Received& received) {
   return received.gt.count >= options.frames;
 }
 
-// Blocks for up to 5 ms on the main topic's waitset; the others are drained on every wake-up.
-Status WaitForMainTopic(Subscriptions& subs) {
-  if (subs.stereo.has_value()) return subs.stereo->WaitForData(5'000'000).status();
+// Blocks for up to 5 ms on the main topic's waitset (stereo only when it is not taken by the
+// listener); the others are drained on every wake-up.
+Status WaitForMainTopic(Subscriptions& subs, bool stereo_by_listener) {
+  if (subs.stereo.has_value() && !stereo_by_listener) {
+    return subs.stereo->WaitForData(5'000'000).status();
+  }
   if (subs.imu.has_value()) return subs.imu->WaitForData(5'000'000).status();
-  return subs.gt->WaitForData(5'000'000).status();
+  if (subs.gt.has_value()) return subs.gt->WaitForData(5'000'000).status();
+  std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  return Status::Ok();
 }
 
 // Takes every stereo frame waiting (stopping early at the target) and checks each one.
@@ -159,7 +171,10 @@ Status DrainStereo(const ListenOptions& options, transport::Reader<mav_dds_Stere
       received->width = static_cast<int>(frame.width);
       received->height = static_cast<int>(frame.height);
       received->bytes += static_cast<double>(frame.left._length) + frame.right._length;
+      const int64_t written_ns = samples.info(i).source_timestamp;
       received->latencies_ms.push_back(static_cast<double>(now_wall - frame.publish_t_ns) * 1e-6);
+      received->publisher_ms.push_back(static_cast<double>(written_ns - frame.publish_t_ns) * 1e-6);
+      received->dds_ms.push_back(static_cast<double>(now_wall - written_ns) * 1e-6);
       if (TargetReached(options, *received)) break;
     }
     if (TargetReached(options, *received)) break;
@@ -205,6 +220,10 @@ ListenReport MakeReport(const Received& received) {
     report.latency_p95_ms = Percentile(latencies_ms, 0.95);
     report.latency_p99_ms = Percentile(latencies_ms, 0.99);
     report.latency_max_ms = Percentile(latencies_ms, 1.0);
+    report.publisher_p50_ms = Percentile(received.publisher_ms, 0.5);
+    report.publisher_p99_ms = Percentile(received.publisher_ms, 0.99);
+    report.dds_p50_ms = Percentile(received.dds_ms, 0.5);
+    report.dds_p99_ms = Percentile(received.dds_ms, 0.99);
   }
   if (stereo.count >= 2 && stereo.last_receive_ns > stereo.first_receive_ns) {
     // Bytes after the first frame over the time between the first and the last.
@@ -229,6 +248,10 @@ bool ListenOptions::IsValid(std::string* why) const {
       *why = "--topic: " + QuoteForError(topic) + " is not one of stereo|imu|ground_truth|all";
     return false;
   }
+  if (wake != "listener" && wake != "waitset") {
+    if (why != nullptr) *why = "--wake: " + QuoteForError(wake) + " is not one of listener|waitset";
+    return false;
+  }
   if (frames < 0) {
     if (why != nullptr) *why = "--frames: must be >= 0, got " + std::to_string(frames);
     return false;
@@ -248,15 +271,32 @@ Result<ListenReport> Listen(const ListenOptions& options, std::ostream& progress
   Subscriptions subs;
   MAV_RETURN_IF_ERROR(Subscribe(participant, options, &subs));
 
+  // `received` is shared with the listener's thread (Cyclone's receive thread) when it takes the
+  // stereo frames; its first error ends the loop.
+  std::mutex mutex;
   Received received;
+  Status listener_error;
+  const bool stereo_by_listener = subs.stereo.has_value() && options.wake == "listener";
+  if (stereo_by_listener) {
+    MAV_RETURN_IF_ERROR(subs.stereo->OnData([&] {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!listener_error.ok() || TargetReached(options, received)) return;
+      listener_error = DrainStereo(options, *subs.stereo, &received);
+    }));
+  }
   const int64_t start_ns = MonotonicNowNs();
   const int64_t end_ns = start_ns + SecondsToNs(options.timeout_s);
   int64_t next_progress_ns = start_ns + kNsPerSecond;
-  while (!TargetReached(options, received) && MonotonicNowNs() < end_ns) {
-    MAV_RETURN_IF_ERROR(WaitForMainTopic(subs));
-    if (subs.stereo.has_value()) MAV_RETURN_IF_ERROR(DrainStereo(options, *subs.stereo, &received));
+  while (MonotonicNowNs() < end_ns) {
+    MAV_RETURN_IF_ERROR(WaitForMainTopic(subs, stereo_by_listener));
+    std::lock_guard<std::mutex> lock(mutex);
+    MAV_RETURN_IF_ERROR(listener_error);
+    if (subs.stereo.has_value() && !stereo_by_listener) {
+      MAV_RETURN_IF_ERROR(DrainStereo(options, *subs.stereo, &received));
+    }
     if (subs.imu.has_value()) MAV_RETURN_IF_ERROR(DrainSequence(*subs.imu, &received.imu));
     if (subs.gt.has_value()) MAV_RETURN_IF_ERROR(DrainSequence(*subs.gt, &received.gt));
+    if (TargetReached(options, received)) break;
     if (options.progress && MonotonicNowNs() >= next_progress_ns) {
       next_progress_ns += kNsPerSecond;
       progress << "  t=" << std::fixed << std::setprecision(0)
@@ -265,7 +305,9 @@ Result<ListenReport> Listen(const ListenOptions& options, std::ostream& progress
                << std::endl;
     }
   }
+  if (stereo_by_listener) MAV_RETURN_IF_ERROR(subs.stereo->ClearOnData());
 
+  std::lock_guard<std::mutex> lock(mutex);
   const bool reached_target = TargetReached(options, received);
   const double elapsed_s = NsToSeconds(MonotonicNowNs() - start_ns);
   ListenReport report = MakeReport(received);
@@ -308,6 +350,10 @@ void PrintReport(const ListenOptions& options, const ListenReport& report, std::
         << report.latency_mean_ms << " ms, p50 " << report.latency_p50_ms << " ms, p95 "
         << report.latency_p95_ms << " ms, p99 " << report.latency_p99_ms << " ms, max "
         << report.latency_max_ms << " ms\n";
+    out << "              hops p50 / p99: publisher (stamp -> dds_write) "
+        << report.publisher_p50_ms << " / " << report.publisher_p99_ms
+        << " ms, DDS (dds_write -> take, " << options.wake << ") " << report.dds_p50_ms << " / "
+        << report.dds_p99_ms << " ms\n";
   }
   if (want_imu) {
     out << "imu:          " << report.imu_samples << " samples, missing " << report.imu_missing

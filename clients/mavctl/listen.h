@@ -21,6 +21,9 @@ struct ListenOptions {
   int64_t frames = 0;
   // Give up after this many seconds in total.
   double timeout_s = 30.0;
+  // How stereo frames are taken: "listener" (on Cyclone's receive thread, as soon as a frame is
+  // complete) or "waitset" (by this thread, woken by a waitset: one thread hand-off more).
+  std::string wake = "listener";
   // Print one line per second while listening.
   bool progress = true;
 
@@ -44,6 +47,11 @@ struct ListenReport {
   double latency_p95_ms = 0.0;
   double latency_p99_ms = 0.0;
   double latency_max_ms = 0.0;
+  // The latency's two hops (ListenOptions::wake names how the DDS one ends).
+  double publisher_p50_ms = 0.0;
+  double publisher_p99_ms = 0.0;
+  double dds_p50_ms = 0.0;
+  double dds_p99_ms = 0.0;
   double throughput_mb_s = 0.0;
   int64_t imu_samples = 0;
   int64_t imu_missing = 0;

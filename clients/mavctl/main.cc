@@ -6,6 +6,7 @@
 //   mavctl sim occupancy --out FILE [--resolution 0.05] [--format bt|mavocc]
 //   mavctl health [--port P] [--service NAME]
 //   mavctl listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]
+//                 [--wake listener|waitset]
 //   mavctl sim flight load|run|pause|status   (the simulator's flight mode)
 //   mavctl ctl configure|arm|disarm|hover|trajectory|gains|state|status   (mav-control)
 //   mavctl plan load|roadmap|path|legs|get|sample|status   (mav-planning)
@@ -40,6 +41,7 @@
 #include "mav/transport/dds.h"
 #include "mav/transport/flags.h"
 #include "mav/transport/grpc_server.h"
+#include "mav/transport/service_main.h"
 
 namespace {
 
@@ -60,6 +62,7 @@ constexpr char kUsage[] =
     "  sim occupancy --out FILE [--resolution M] [--format bt|mavocc]\n"
     "  health [--port P] [--service NAME]\n"
     "  listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]\n"
+    "         [--wake listener|waitset]\n"
     "  loc configure --method sparse-pixel|sparse-subpixel|dense [--euroc DIR | --simulator ADDR]\n"
     "  loc reset | loc status | loc trajectory --out FILE.tum   (port 50052)\n"
     "  map start|reset|insert|build|occupancy|query|mesh|status  (mavctl map --help; port 50053)\n"
@@ -357,6 +360,9 @@ int ListenCommand(const std::vector<std::string>& args) {
                "stop after N stereo frames (samples for imu/ground_truth); 0 = until --timeout");
   flags.AddDouble("timeout", &options.timeout_s, "give up after S seconds");
   flags.AddBool("quiet", &quiet, "no progress lines");
+  flags.AddString("wake", &options.wake,
+                  "listener: take stereo frames on DDS's receive thread (lowest latency); "
+                  "waitset: on this thread, woken by a waitset");
   mav::transport::AddDdsFlags(&flags, &options.dds);
   ParseOrExit(&flags, nullptr, args);
   if (const mav::Status s = mav::transport::ApplyDdsEnv(flags, &options.dds); !s.ok()) {
@@ -369,6 +375,7 @@ int ListenCommand(const std::vector<std::string>& args) {
     std::cerr << "mavctl: " << why << "\n";
     return 2;
   }
+  mav::transport::KeepLargeSampleBuffers();  // a take allocates each 722 KB frame anew
   auto report = mav::mavctl::Listen(options, std::cerr);
   if (!report.ok()) {
     std::cerr << "mavctl: listen: " << report.status().ToString() << "\n";

@@ -169,6 +169,7 @@ int Run(const std::vector<std::string>& args) {
   r.map_build_ms = services->map_build_ms;
   r.map_quality = services->map_quality;
   r.tick_ms = services->advance_ms;
+  if (services->pose_latency.total.count > 0) r.pose_latency = services->pose_latency;
   std::fputs(mission::MissionTable(r).c_str(), stdout);
 
   if (!f.out_dir.empty()) {

@@ -827,6 +827,10 @@ Result<ServiceFigures> ServiceDriver::Figures() {
       [&](grpc::ClientContext* c) { return s.control->GetStatus(c, get_control, &control); }));
   f.poses_merged = control.poses();
   f.lockstep_frames_missed = control.lockstep_frames_missed();
+  const v1::PoseLatency& latency = control.pose_latency();
+  f.pose_latency = {StatsFromProto(latency.total()), StatsFromProto(latency.frame_transport()),
+                    StatsFromProto(latency.localization()),
+                    StatsFromProto(latency.pose_transport()), StatsFromProto(latency.merge())};
   v1::ControlState state;
   MAV_RETURN_IF_ERROR(s.GetControlState(&state));
   f.poses_gated = state.estimate().poses_gated();

@@ -89,6 +89,7 @@ struct ServiceFigures {
   uint64_t poses_merged = 0;            // control
   uint64_t poses_gated = 0;             // control: rejected by the estimator's gate
   uint64_t lockstep_frames_missed = 0;  // control: frames the localization did not answer
+  mission::MissionFigures::PoseLatency pose_latency;  // control: vision poses, capture -> in
   uint64_t plans = 0, plans_failed = 0;
   // The online map: keyframes mapped, rebuilds (each a new planner map), their wall time
   // (BuildMap + download + upload + roadmap), and the final map against the world's occupancy

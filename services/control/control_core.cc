@@ -51,6 +51,7 @@ Status ControlCore::Configure(const ControlConfig& config, const Termination& de
   imu_rate_.Clear();
   pose_rate_.Clear();
   loop_ms_.Clear();
+  pose_latency_.Clear();
   last_error_.clear();
   takeover_pending_ = false;
   MAV_LOG(kInfo) << "configured: " << control::ControllerTypeName(config.autopilot.controller)
@@ -135,17 +136,46 @@ void ControlCore::TryTakeoverLocked() {
   MAV_LOG(kWarning) << text;
 }
 
+void PoseLatencyWindows::Add(const PoseStamps& s, int64_t merged_ns) {
+  if (s.frame_publish_ns <= 0 || s.frame_receive_ns <= 0 || s.pose_publish_ns <= 0 ||
+      s.pose_take_ns <= 0) {
+    return;
+  }
+  auto ms = [](int64_t from, int64_t to) { return static_cast<double>(to - from) * 1e-6; };
+  total_.Add(ms(s.frame_publish_ns, merged_ns));
+  frame_transport_.Add(ms(s.frame_publish_ns, s.frame_receive_ns));
+  localization_.Add(ms(s.frame_receive_ns, s.pose_publish_ns));
+  pose_transport_.Add(ms(s.pose_publish_ns, s.pose_take_ns));
+  merge_.Add(ms(s.pose_take_ns, merged_ns));
+}
+
+PoseLatency PoseLatencyWindows::Summary() const {
+  return {total_.Summary(), frame_transport_.Summary(), localization_.Summary(),
+          pose_transport_.Summary(), merge_.Summary()};
+}
+
+void PoseLatencyWindows::Clear() {
+  for (RuntimeWindow* w : {&total_, &frame_transport_, &localization_, &pose_transport_, &merge_}) {
+    w->Clear();
+  }
+}
+
 void ControlCore::OnPose(const std::string& frame_id, int64_t t_ns,
-                         const geometry::SE3& T_world_sensor) {
+                         const geometry::SE3& T_world_sensor, const PoseStamps& stamps) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!autopilot_.has_value()) return;
+  if (OnPoseLocked(frame_id, t_ns, T_world_sensor)) pose_latency_.Add(stamps, WallNowNs());
+}
+
+bool ControlCore::OnPoseLocked(const std::string& frame_id, int64_t t_ns,
+                               const geometry::SE3& T_world_sensor) {
+  if (!autopilot_.has_value()) return false;
   const std::vector<std::string>& frames = config_->pose_frames;
   const auto it = std::find(frames.begin(), frames.end(), frame_id);
   if (it == frames.end()) {
     ++poses_rejected_;
     last_error_ = "pose: unknown child_frame_id " + QuoteForError(frame_id) +
                   " (configured: " + frames[0] + (frames.size() > 1 ? ", ..." : "") + ")";
-    return;
+    return false;
   }
   control::PoseMeasurement pose;
   pose.t_ns = t_ns;
@@ -164,11 +194,12 @@ void ControlCore::OnPose(const std::string& frame_id, int64_t t_ns,
     auto at = std::upper_bound(l.held.begin(), l.held.end(), t_ns,
                                [](int64_t t, const Held& h) { return t < h.t_ns; });
     l.held.insert(at, Held{t_ns, T_world_sensor});
-    return;
+    return true;
   }
   // Refusals (too old, before the first IMU) are counted by the autopilot (poses_dropped).
   if (autopilot_->FeedPose(pose).ok()) pending_pose_t_ns_ = t_ns;
   pose_rate_.Add(MonotonicNowNs());
+  return true;
 }
 
 void ControlCore::OnPoseAnswer(const std::string& frame_id, int64_t t_ns, const std::string& why) {
@@ -373,6 +404,7 @@ ControlCoreStatus ControlCore::GetStatus() const {
   s.lockstep_frames_missed = lockstep_frames_missed_;
   for (const LockstepSource& l : lockstep_) s.lockstep_source_silent |= l.enabled && l.silent;
   s.loop_ms = loop_ms_.Summary();
+  s.pose_latency = pose_latency_.Summary();
   s.last_error = last_error_.text();
   s.last_error_age_s = last_error_.AgeS(now_ns);
   s.imu_publishers_alive = imu_publishers_alive_;

@@ -84,6 +84,40 @@ class CommandSink {
   virtual uint32_t ActuatorSubscribers() { return 0; }
 };
 
+// Wall-clock stamps of a pose estimated from a stereo frame (PoseWithCovariance's), ns; all 0 for
+// a pose not from a frame. pose_take_ns: when mav-control's DDS reader took the pose.
+struct PoseStamps {
+  int64_t frame_publish_ns = 0;
+  int64_t frame_receive_ns = 0;
+  int64_t pose_publish_ns = 0;
+  int64_t pose_take_ns = 0;
+};
+
+// The end-to-end latency of vision poses, capture -> in the estimator, and its hops (wall clock,
+// the last 1000 poses): the stereo frame over DDS (publish -> the localization took it), the
+// localization (took it -> published the pose: queue and VO), the pose over DDS (publish ->
+// mav-control took it), and mav-control (took it -> merged, or held for a lock-step release).
+struct PoseLatency {
+  RuntimeStats total_ms;
+  RuntimeStats frame_transport_ms;
+  RuntimeStats localization_ms;
+  RuntimeStats pose_transport_ms;
+  RuntimeStats merge_ms;
+};
+
+class PoseLatencyWindows {
+ public:
+  // Adds one pose (ignored when it has no frame stamps); `merged_ns`: when OnPose was done.
+  void Add(const PoseStamps& s, int64_t merged_ns);
+  PoseLatency Summary() const;
+  void Clear();
+
+ private:
+  static constexpr size_t kWindow = 1000;
+  RuntimeWindow total_{kWindow}, frame_transport_{kWindow}, localization_{kWindow},
+      pose_transport_{kWindow}, merge_{kWindow};
+};
+
 struct ControlCoreStatus {
   bool configured = false;
   std::optional<ControlConfig> config;  // the effective one (gains as last set)
@@ -97,6 +131,7 @@ struct ControlCoreStatus {
   uint64_t lockstep_frames_missed = 0;
   bool lockstep_source_silent = false;
   RuntimeStats loop_ms;  // OnImu: sample in -> command written
+  PoseLatency pose_latency;
   std::string last_error;
   double last_error_age_s = 0;  // wall seconds since it was set (0: none)
   uint32_t actuator_subscribers = 0;
@@ -141,8 +176,9 @@ class ControlCore {
   // step); an older one is rejected (counted). Ignored while unconfigured.
   void OnImu(const control::ImuMeasurement& imu);
   // A pose T_world_sensor of the source whose frame is `frame_id`; an unknown frame is rejected
-  // (counted, last_error).
-  void OnPose(const std::string& frame_id, int64_t t_ns, const geometry::SE3& T_world_sensor);
+  // (counted, last_error). `stamps` (a pose from a stereo frame) add to the pose latency.
+  void OnPose(const std::string& frame_id, int64_t t_ns, const geometry::SE3& T_world_sensor,
+              const PoseStamps& stamps = {});
   // A lock-step source's answer for the frame stamped t_ns that carries no usable pose (LOST):
   // the frame is answered (counted as rejected with `why`). Other sources: RejectPose.
   void OnPoseAnswer(const std::string& frame_id, int64_t t_ns, const std::string& why);
@@ -205,6 +241,8 @@ class ControlCore {
   // The pending takeover, after an IMU step.
   void TryTakeoverLocked();
   bool StaleLocked(int64_t now_wall_ns) const;
+  // OnPose's work; false when the pose was rejected (unconfigured, unknown frame).
+  bool OnPoseLocked(const std::string& frame_id, int64_t t_ns, const geometry::SE3& T_world_sensor);
 
   CommandSink* sink_;
   mutable std::mutex mutex_;
@@ -225,6 +263,7 @@ class ControlCore {
   uint64_t lockstep_frames_missed_ = 0;
   RateMeter imu_rate_, pose_rate_;
   RuntimeWindow loop_ms_{1000};
+  PoseLatencyWindows pose_latency_;
   LastError last_error_;
   uint32_t imu_publishers_alive_ = 0;
   bool imu_publisher_seen_ = false;  // alive > 0 once: a drop to 0 is a loss

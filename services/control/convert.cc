@@ -409,6 +409,12 @@ void ToProto(const ControlCoreStatus& s, bool dds_input, v1::ControlStatus* out)
   out->set_imu_timeouts(a.imu_timeouts);
   out->set_pose_timeouts(a.pose_timeouts);
   ToProto(s.loop_ms, out->mutable_loop_ms());
+  v1::PoseLatency* latency = out->mutable_pose_latency();
+  ToProto(s.pose_latency.total_ms, latency->mutable_total());
+  ToProto(s.pose_latency.frame_transport_ms, latency->mutable_frame_transport());
+  ToProto(s.pose_latency.localization_ms, latency->mutable_localization());
+  ToProto(s.pose_latency.pose_transport_ms, latency->mutable_pose_transport());
+  ToProto(s.pose_latency.merge_ms, latency->mutable_merge());
   out->set_dds_input(dds_input);
   out->set_actuator_subscribers(s.actuator_subscribers);
   out->set_last_error(s.last_error);

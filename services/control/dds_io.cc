@@ -114,6 +114,7 @@ void DdsIo::StopInputLocked() {
 }
 
 void DdsIo::OnPoseSample(const mav_dds_PoseWithCovariance& sample) {
+  const int64_t take_ns = WallNowNs();
   ++poses_received_;
   Result<PoseInput> pose = FromDds(sample);
   if (!pose.ok()) {
@@ -122,7 +123,9 @@ void DdsIo::OnPoseSample(const mav_dds_PoseWithCovariance& sample) {
                         sample.t_ns, pose.status().message());
     return;
   }
-  core_->OnPose(pose->frame_id, pose->t_ns, pose->T_world_sensor);
+  core_->OnPose(pose->frame_id, pose->t_ns, pose->T_world_sensor,
+                PoseStamps{sample.frame_publish_t_ns, sample.frame_receive_t_ns,
+                           sample.publish_t_ns, take_ns});
 }
 
 void DdsIo::WaitForPoses(int64_t imu_t_ns) {

@@ -54,7 +54,18 @@ DdsIo::~DdsIo() {
 
 Status DdsIo::PublishPose(const RigPose& pose, OutputFrame frame) {
   const uint64_t sequence = pose_sequence_.fetch_add(1);
-  return pose_writer_.Write(ToDds(sequence, pose, frame, WallNowNs()));
+  mav_dds_PoseWithCovariance sample = ToDds(sequence, pose, frame, WallNowNs());
+  {
+    std::lock_guard<std::mutex> lock(stamps_mutex_);
+    for (const FrameStamps& s : stamps_) {
+      if (s.t_ns == pose.t_ns) {
+        sample.frame_publish_t_ns = s.publish_ns;
+        sample.frame_receive_t_ns = s.receive_ns;
+        break;
+      }
+    }
+  }
+  return pose_writer_.Write(sample);
 }
 
 uint32_t DdsIo::PoseSubscribers() {
@@ -108,12 +119,18 @@ Status DdsIo::SetInput(bool enabled) {
 }
 
 void DdsIo::OnFrame(const mav_dds_StereoFrame& frame) {
+  const int64_t receive_ns = WallNowNs();
   ++frames_received_;
   const Status check = CheckStereoFrame(frame);
   if (!check.ok()) {
     MAV_LOG(kWarning) << "rejected: " << check.message();
     localizer_->CountRejected();
     return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(stamps_mutex_);
+    stamps_[next_stamp_] = FrameStamps{frame.t_ns, frame.publish_t_ns, receive_ns};
+    next_stamp_ = (next_stamp_ + 1) % kStampedFrames;
   }
   const Status queued = localizer_->SubmitLive(StereoInput(service_common::StereoFromDds(frame)));
   if (!queued.ok()) {

@@ -12,6 +12,7 @@
 // (transport::DdsReadLoop) waits for frames, checks them (size, CRC-32), copies the pixels and
 // hands them to Localizer::SubmitLive, which never blocks (drop-oldest).
 
+#include <array>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -83,6 +84,18 @@ class DdsIo : public PoseSink, public InputControl {
   std::atomic<uint64_t> frames_received_{0};
   std::atomic<uint64_t> imu_received_{0};
   std::atomic<uint64_t> pose_sequence_{0};
+
+  // The wall-clock stamps of the newest frames (its publish, our take), found by the frame's
+  // t_ns when its pose is published (PoseWithCovariance.frame_publish_t_ns/frame_receive_t_ns).
+  struct FrameStamps {
+    int64_t t_ns = -1;
+    int64_t publish_ns = 0;
+    int64_t receive_ns = 0;
+  };
+  static constexpr size_t kStampedFrames = 128;  // > the longest input queue (100 frames)
+  std::mutex stamps_mutex_;
+  std::array<FrameStamps, kStampedFrames> stamps_{};
+  size_t next_stamp_ = 0;
 };
 
 }  // namespace mav::localization_service

@@ -44,7 +44,8 @@ void FillStereoFrame(uint64_t sequence, const RenderedFrame& frame, bool rectifi
   out->right._buffer = const_cast<uint8_t*>(frame.right.ptr<uint8_t>());
   out->right._length = out->right._maximum = n;
   out->right._release = false;
-  out->crc32 = StereoCrc32(out->left._buffer, n, out->right._buffer, n);
+  out->crc32 = frame.crc32.has_value() ? *frame.crc32
+                                       : StereoCrc32(out->left._buffer, n, out->right._buffer, n);
 }
 
 mav_dds_ImuSample ToDds(uint64_t sequence, const dataset::ImuSample& sample, int64_t publish_t_ns) {
@@ -167,6 +168,15 @@ Status DdsStreamSink::WaitForStereoAcks(int64_t timeout_ns) {
 uint32_t DdsStreamSink::StereoSubscribers() {
   Result<uint32_t> n = stereo_->MatchedReaders();
   return n.ok() ? *n : 0;
+}
+
+void DdsStreamSink::PrepareStereo(RenderedFrame* frame) {
+  if (frame->left.type() != CV_8UC1 || frame->right.type() != CV_8UC1 ||
+      !frame->left.isContinuous() || !frame->right.isContinuous()) {
+    return;  // FillStereoFrame checks the images and computes the CRC itself
+  }
+  frame->crc32 = StereoCrc32(frame->left.ptr<uint8_t>(), frame->left.total(),
+                             frame->right.ptr<uint8_t>(), frame->right.total());
 }
 
 uint32_t DdsStreamSink::ImuSubscribers() {

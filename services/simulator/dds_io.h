@@ -36,7 +36,8 @@ using service_common::StereoCrc32;
 
 // Fills `out` for `frame`. The image sequences BORROW the frame's pixel buffers (no copy): `out`
 // is valid only while `frame` lives, and must not be freed with mav_dds_StereoFrame_free.
-// MAV_CHECKs that both images are continuous CV_8UC1 of the same size.
+// MAV_CHECKs that both images are continuous CV_8UC1 of the same size. The CRC-32 is the
+// frame's own when DdsStreamSink::PrepareStereo computed it ahead, else computed here.
 void FillStereoFrame(uint64_t sequence, const RenderedFrame& frame, bool rectified,
                      int64_t publish_t_ns, mav_dds_StereoFrame* out);
 
@@ -65,6 +66,8 @@ class DdsStreamSink : public StreamSink, public FlightIo {
   Status WaitForStereoAcks(int64_t timeout_ns) override;
   uint32_t StereoSubscribers() override;
   uint32_t ImuSubscribers() override;
+  // Computes the frame's CRC-32 (FillStereoFrame then takes it from the frame).
+  void PrepareStereo(RenderedFrame* frame) override;
   uint32_t domain() const override { return static_cast<uint32_t>(participant_.domain()); }
 
   // FlightIo (flight mode).

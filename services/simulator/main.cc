@@ -39,7 +39,18 @@ int main(int argc, char** argv) {
   runner.flags().AddInt("flight-seed", &flight_seed, "--flight-task: sensor noise seed");
   runner.flags().AddString("plant-map", &options.plant_map_path,
                            "the OctoMap of the built-in t4_3 (power plant)");
+  std::string render_priority = "normal";
+  runner.flags().AddString("render-priority", &render_priority,
+                           "normal|idle: idle renders the replay's frames only on CPU time no "
+                           "other thread wants (SCHED_IDLE; for real-time playback)");
   runner.ParseFlagsOrExit(argc, argv);
+  // Its large blocks are rendered pairs and their DDS samples, recycled at frame rate.
+  mav::transport::KeepLargeSampleBuffers();
+  if (render_priority == "idle") {
+    options.render_priority = mav::sim::FramePrefetcher::Priority::kIdle;
+  } else if (render_priority != "normal") {
+    return runner.Usage("--render-priority: '" + render_priority + "' is not one of normal|idle");
+  }
   if (!preset.empty() && !euroc.empty()) return runner.Usage("--preset and --euroc are exclusive");
   if (flight_task.empty() && (lockstep || runner.flags().WasSet("flight-seed"))) {
     return runner.Usage("--lockstep/--flight-seed need --flight-task");

@@ -58,8 +58,12 @@ bool Pacing::IsValid(std::string* why) const {
   return true;
 }
 
-Player::Player(StreamSink* sink)
-    : sink_(sink), queue_(QueueOptions()), render_ms_(kStatsWindow), publish_ms_(kStatsWindow) {
+Player::Player(StreamSink* sink, sim::FramePrefetcher::Priority render_priority)
+    : sink_(sink),
+      render_priority_(render_priority),
+      queue_(QueueOptions()),
+      render_ms_(kStatsWindow),
+      publish_ms_(kStatsWindow) {
   MAV_CHECK(sink_ != nullptr);
 }
 
@@ -78,7 +82,14 @@ Status Player::Load(std::shared_ptr<const ScenarioSource> source, const Terminat
   std::lock_guard<std::mutex> command(command_mutex_);
   MAV_RETURN_IF_ERROR(deadline.Check("LoadScenario"));
   queue_.Reset("a new scenario was loaded");
-  auto prefetcher = std::make_shared<sim::FramePrefetcher>(source, /*threads=*/2, /*depth=*/4);
+  StreamSink* sink = sink_;
+  auto prefetcher = std::make_shared<sim::FramePrefetcher>(
+      source, /*threads=*/2, /*depth=*/4,
+      [sink](RenderedFrame& frame) {
+        sink->PrepareStereo(&frame);
+        return Status::Ok();
+      },
+      render_priority_);
   std::shared_ptr<sim::FramePrefetcher> old;
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -51,6 +51,9 @@ class StreamSink {
   virtual uint32_t StereoSubscribers() = 0;
   virtual uint32_t ImuSubscribers() = 0;
   virtual uint32_t domain() const = 0;
+  // Work on a frame that can be done before its turn, on the rendering thread (the DDS sink
+  // computes the sample's CRC-32 there, off the publishing path). Must be thread-safe.
+  virtual void PrepareStereo(RenderedFrame* frame) { (void)frame; }
 };
 
 enum class PlayerState { kIdle, kLoaded, kRunning, kPaused, kFinished };
@@ -91,8 +94,10 @@ struct PlayerStatus {
 
 class Player {
  public:
-  // `sink` is not owned and must outlive the player.
-  explicit Player(StreamSink* sink);
+  // `sink` is not owned and must outlive the player. `render_priority`: the rendering threads'
+  // (sim::FramePrefetcher; kIdle for real-time playback beside its subscribers).
+  explicit Player(StreamSink* sink, sim::FramePrefetcher::Priority render_priority =
+                                        sim::FramePrefetcher::Priority::kNormal);
   ~Player();
   Player(const Player&) = delete;
   Player& operator=(const Player&) = delete;
@@ -125,6 +130,7 @@ class Player {
   void RewindLocked();
 
   StreamSink* sink_;
+  const sim::FramePrefetcher::Priority render_priority_;
   WorkQueue queue_;
   std::mutex command_mutex_;  // one command at a time (Load, Start, Pause, Step)
 

@@ -68,7 +68,7 @@ bool SimulatorServiceOptions::IsValid(std::string* why) const {
 
 SimulatorService::SimulatorService(StreamSink* sink, SimulatorServiceOptions options,
                                    FlightIo* flight_io)
-    : options_(std::move(options)), player_(sink) {
+    : options_(std::move(options)), player_(sink, options_.render_priority) {
   if (flight_io == nullptr) {
     null_flight_io_ = std::make_unique<NullFlightIo>();
     flight_io = null_flight_io_.get();

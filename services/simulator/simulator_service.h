@@ -30,6 +30,9 @@ struct SimulatorServiceOptions {
   int64_t max_occupancy_memory_mb = 1024;
   // The OctoMap of the built-in t4_3 (the power plant).
   std::string plant_map_path = sim::DefaultPlantMapPath();
+  // The replay's rendering threads (Player): kIdle yields the CPU to every other thread
+  // (mav-simulator --render-priority idle; the compose stack's setting).
+  sim::FramePrefetcher::Priority render_priority = sim::FramePrefetcher::Priority::kNormal;
 
   static constexpr double kOctomapBytesPerVoxel = 64.0;
   bool IsValid(std::string* why) const;

@@ -642,6 +642,30 @@ TEST_F(ControlContractTest, PosesOfAnUnknownFrameOrMalformedAreRejected) {
   EXPECT_FALSE(sample.rotor_speeds._release);
 }
 
+// A pose with its frame's stamps adds to ControlStatus.pose_latency, hop by hop; one without
+// them (a pose sensor's) or of an unknown frame does not.
+TEST_F(ControlContractTest, VisionPoseLatencyIsCountedHopByHop) {
+  ASSERT_TRUE(Configure(TaskRequest()).ok());
+  core_->OnImu({0, Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 0, 9.81)});
+  const int64_t now = WallNowNs();
+  const int64_t ms = 1'000'000;
+  const PoseStamps stamps{now - 12 * ms, now - 10 * ms, now - 2 * ms, now - 1 * ms};
+  core_->OnPose("pose_sensor0", 0, geometry::SE3::Identity(), stamps);
+  core_->OnPose("pose_sensor0", SecondsToNs(0.005), geometry::SE3::Identity());  // no stamps
+  core_->OnPose("body", SecondsToNs(0.01), geometry::SE3::Identity(), stamps);   // rejected
+  const v1::PoseLatency latency = GetStatus().pose_latency();
+  ASSERT_EQ(latency.total().count(), 1u);
+  EXPECT_NEAR(latency.frame_transport().median_ms(), 2.0, 1e-9);
+  EXPECT_NEAR(latency.localization().median_ms(), 8.0, 1e-9);
+  EXPECT_NEAR(latency.pose_transport().median_ms(), 1.0, 1e-9);
+  EXPECT_GE(latency.merge().median_ms(), 0.0);
+  EXPECT_LT(latency.merge().median_ms(), 1000.0);
+  EXPECT_NEAR(latency.total().median_ms(), 11.0 + latency.merge().median_ms(), 1e-6);
+  // Configure starts the windows afresh.
+  ASSERT_TRUE(Configure(TaskRequest()).ok());
+  EXPECT_EQ(GetStatus().pose_latency().total().count(), 0u);
+}
+
 // ---- Hover
 // ----------------------------------------------------------------------------------------
 

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <map>
@@ -276,6 +277,94 @@ TEST(DdsTest, TypedWriteAndLoanedTakeInOneProcess) {
   Writer<mav_dds_StereoFrame> moved = std::move(*writer);
   EXPECT_TRUE(moved.valid());
   EXPECT_FALSE(writer->valid());
+}
+
+// Reader::OnData: the callback takes the samples on the delivering thread; it survives a move of
+// the reader and is not called once cleared. The sink's CRC computed ahead is the sample's.
+TEST(DdsTest, TheDataListenerTakesOnTheDeliveringThreadAndStopsWhenCleared) {
+  DdsOptions options;
+  options.domain = TestDomain(3);
+  auto participant = Participant::Create(options);
+  ASSERT_TRUE(participant.ok()) << participant.status().ToString();
+  auto topic =
+      Topic<mav_dds_StereoFrame>::Create(*participant, kStereoTopic, &mav_dds_StereoFrame_desc);
+  ASSERT_TRUE(topic.ok()) << topic.status().ToString();
+  auto writer = Writer<mav_dds_StereoFrame>::Create(*participant, *topic, Qos::SensorStream());
+  ASSERT_TRUE(writer.ok()) << writer.status().ToString();
+  auto created =
+      Reader<mav_dds_StereoFrame>::Create(*participant, *topic, Qos::SensorStream().KeepAll());
+  ASSERT_TRUE(created.ok()) << created.status().ToString();
+  ASSERT_TRUE(writer->WaitForReaders(1, 5'000'000'000).ok());
+
+  std::mutex mutex;
+  std::vector<uint64_t> sequences;
+  std::vector<uint32_t> crcs;
+  std::thread::id callback_thread;
+  std::atomic<Reader<mav_dds_StereoFrame>*> current{&*created};
+  ASSERT_TRUE(created
+                  ->OnData([&] {
+                    auto samples = current.load()->Take(4);
+                    std::lock_guard<std::mutex> lock(mutex);
+                    callback_thread = std::this_thread::get_id();
+                    ASSERT_TRUE(samples.ok());
+                    for (int32_t i = 0; i < samples->size(); ++i) {
+                      if (!samples->valid(i)) continue;
+                      sequences.push_back((*samples)[i].sequence_number);
+                      crcs.push_back((*samples)[i].crc32);
+                    }
+                  })
+                  .ok());
+  // Moving the reader keeps its callback (the listener's argument lives on the heap).
+  Reader<mav_dds_StereoFrame> reader = std::move(*created);
+  current.store(&reader);
+  simulator_service::RenderedFrame frame;
+  frame.left = cv::Mat(48, 64, CV_8UC1, cv::Scalar(5));
+  frame.right = cv::Mat(48, 64, CV_8UC1, cv::Scalar(9));
+  auto write = [&](uint64_t sequence) {
+    mav_dds_StereoFrame sample;
+    simulator_service::FillStereoFrame(sequence, frame, false, 0, &sample);
+    ASSERT_TRUE(writer->Write(sample).ok());
+  };
+  const uint32_t computed_here = [&] {
+    mav_dds_StereoFrame sample;
+    simulator_service::FillStereoFrame(0, frame, false, 0, &sample);
+    return sample.crc32;
+  }();
+  // The sink computes the same CRC ahead, and FillStereoFrame then takes the frame's.
+  auto sink = simulator_service::DdsStreamSink::Create(options);
+  ASSERT_TRUE(sink.ok()) << sink.status().ToString();
+  (*sink)->PrepareStereo(&frame);
+  ASSERT_TRUE(frame.crc32.has_value());
+  EXPECT_EQ(*frame.crc32, computed_here);
+  for (uint64_t k = 0; k < 3; ++k) write(k);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (std::chrono::steady_clock::now() < deadline) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (sequences.size() >= 3) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    EXPECT_EQ(sequences, (std::vector<uint64_t>{0, 1, 2}));
+    EXPECT_EQ(crcs, (std::vector<uint32_t>(3, computed_here)));
+    // In one process Cyclone delivers on the writer's thread (dds_write): here, this one.
+    EXPECT_EQ(callback_thread, std::this_thread::get_id());
+  }
+
+  // Cleared: later samples stay in the reader for Take.
+  ASSERT_TRUE(reader.ClearOnData().ok());
+  write(3);
+  ASSERT_TRUE(writer->WaitForAcks(5'000'000'000).ok());
+  auto ready = reader.WaitForData(2'000'000'000);
+  ASSERT_TRUE(ready.ok() && *ready);
+  auto left = reader.Take(4);
+  ASSERT_TRUE(left.ok());
+  ASSERT_EQ(left->size(), 1);
+  EXPECT_EQ((*left)[0].sequence_number, 3u);
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_EQ(sequences.size(), 3u);
 }
 
 TEST(DdsTest, CheckStereoFrameNamesTheCorruptField) {

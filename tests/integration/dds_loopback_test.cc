@@ -11,7 +11,10 @@
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
+#include <iterator>
 #include <map>
+#include <memory>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -55,23 +58,28 @@ std::map<std::string, std::string> ParseResult(const std::string& output) {
   return fields;
 }
 
-TEST(DdsLoopbackTest, ASubscriberInAnotherProcessReceivesEveryStereoFrameIntact) {
+// Two subscribers in other processes, one taking on DDS's receive thread (mavctl listen's
+// default, --wake listener), one woken by a waitset.
+TEST(DdsLoopbackTest, SubscribersInOtherProcessesReceiveEveryStereoFrameIntact) {
   constexpr int kFrames = 40;
   const int64_t domain = TestDomain(11);
-  Child listener({kBinDir + "/mavctl", "listen", "--topic", "stereo", "--frames",
-                  std::to_string(kFrames), "--timeout", "40", "--dds-domain",
-                  std::to_string(domain), "--quiet"});
-  ASSERT_TRUE(listener.running());
+  auto listen = [&](const std::string& wake) {
+    return std::make_unique<Child>(std::vector<std::string>{
+        kBinDir + "/mavctl", "listen", "--topic", "stereo", "--frames", std::to_string(kFrames),
+        "--timeout", "40", "--dds-domain", std::to_string(domain), "--quiet", "--wake", wake});
+  };
+  std::unique_ptr<Child> listeners[] = {listen("listener"), listen("waitset")};
+  for (const auto& listener : listeners) ASSERT_TRUE(listener->running());
 
   transport::DdsOptions options;
   options.domain = domain;
   auto sink = simulator_service::DdsStreamSink::Create(options);
   ASSERT_TRUE(sink.ok()) << sink.status().ToString();
   const auto match_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(15);
-  while ((*sink)->StereoSubscribers() < 1 && std::chrono::steady_clock::now() < match_deadline) {
+  while ((*sink)->StereoSubscribers() < 2 && std::chrono::steady_clock::now() < match_deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  ASSERT_GE((*sink)->StereoSubscribers(), 1u) << "mavctl listen never matched";
+  ASSERT_GE((*sink)->StereoSubscribers(), 2u) << "the two mavctl listen never matched";
 
   // Synthetic 752x480 pairs of seeded noise: every byte matters to the checksum.
   cv::RNG rng(42);
@@ -89,21 +97,39 @@ TEST(DdsLoopbackTest, ASubscriberInAnotherProcessReceivesEveryStereoFrameIntact)
   }
   const double publish_s = NsToSeconds(MonotonicNowNs() - start_ns);
 
-  const std::string output = listener.ReadAll();
-  const std::optional<int> exit_code = listener.Wait(std::chrono::seconds(30));
-  ASSERT_TRUE(exit_code.has_value()) << "mavctl listen did not finish:\n" << output;
-  EXPECT_EQ(*exit_code, 0) << output;
-  const auto result = ParseResult(output);
-  ASSERT_FALSE(result.empty()) << output;
-  EXPECT_EQ(result.at("frames"), std::to_string(kFrames)) << output;
-  EXPECT_EQ(result.at("first_seq"), "0") << output;
-  EXPECT_EQ(result.at("missing"), "0") << output;
-  EXPECT_EQ(result.at("out_of_order"), "0") << output;
-  EXPECT_EQ(result.at("crc_failures"), "0") << output;
-  std::printf("%d frames of 722 KB published and acknowledged in %.3f s (%.1f frames/s)\n%s",
-              kFrames, publish_s, kFrames / publish_s, output.c_str());
+  std::printf("%d frames of 722 KB published and acknowledged in %.3f s (%.1f frames/s)\n", kFrames,
+              publish_s, kFrames / publish_s);
+  for (const auto& listener : listeners) {
+    const std::string output = listener->ReadAll();
+    const std::optional<int> exit_code = listener->Wait(std::chrono::seconds(30));
+    ASSERT_TRUE(exit_code.has_value()) << "mavctl listen did not finish:\n" << output;
+    EXPECT_EQ(*exit_code, 0) << output;
+    const auto result = ParseResult(output);
+    ASSERT_FALSE(result.empty()) << output;
+    EXPECT_EQ(result.at("frames"), std::to_string(kFrames)) << output;
+    EXPECT_EQ(result.at("first_seq"), "0") << output;
+    EXPECT_EQ(result.at("missing"), "0") << output;
+    EXPECT_EQ(result.at("out_of_order"), "0") << output;
+    EXPECT_EQ(result.at("crc_failures"), "0") << output;
+    EXPECT_NE(output.find("hops p50 / p99: publisher"), std::string::npos) << output;
+    std::printf("%s", output.c_str());
+  }
+  // A wake mode that does not exist is refused before subscribing, naming the flag.
+  const std::string bad_log =
+      mav::testing::BinaryDir() + "/Testing/mavctl-bad-wake-" + std::to_string(::getpid()) + ".log";
+  std::system(("mkdir -p " + mav::testing::BinaryDir() + "/Testing").c_str());
+  Child bad(
+      {kBinDir + "/mavctl", "listen", "--wake", "poll", "--dds-domain", std::to_string(domain)},
+      bad_log);
+  EXPECT_EQ(bad.Wait(std::chrono::seconds(10)), std::optional<int>(2));
+  std::ifstream bad_file(bad_log);
+  const std::string bad_output((std::istreambuf_iterator<char>(bad_file)),
+                               std::istreambuf_iterator<char>());
+  EXPECT_NE(bad_output.find("--wake: 'poll' is not one of listener|waitset"), std::string::npos)
+      << bad_output;
 }
 
+// The simulator binary renders at SCHED_IDLE (--render-priority idle), the CRC computed ahead.
 TEST(DdsLoopbackTest, SimulatorBinaryStreamsAScenarioEndToEnd) {
   constexpr int kFrames = 20;
   const int64_t domain = TestDomain(23);
@@ -113,7 +139,7 @@ TEST(DdsLoopbackTest, SimulatorBinaryStreamsAScenarioEndToEnd) {
                           std::to_string(::getpid()) + ".log";
   std::system(("mkdir -p " + mav::testing::BinaryDir() + "/Testing").c_str());
   Child simulator({kBinDir + "/mav-simulator", "--port", std::to_string(port), "--dds-domain",
-                   std::to_string(domain)},
+                   std::to_string(domain), "--render-priority", "idle"},
                   log);
   ASSERT_TRUE(simulator.running());
 

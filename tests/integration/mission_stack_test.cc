@@ -185,6 +185,22 @@ TEST_F(MissionStackTest, RoomMissionThroughTheServicesFliesTheInProcessTrajector
   const std::vector<Row> services = ReadTrajectory(dir_ + "/out/trajectory.csv");
   ASSERT_GT(services.size(), 200u);
 
+  // Every vision pose's path, frame capture -> mav-control's estimator, stamped at each hop.
+  std::smatch latency;
+  ASSERT_TRUE(std::regex_search(
+      report, latency,
+      std::regex("\"pose_latency_ms\": \\{\"count\": ([0-9]+), \"p50\": ([0-9.eE+-]+), "
+                 "\"p99\": ([0-9.eE+-]+), \"max\": [0-9.eE+-]+, \"frame_transport_p50\": "
+                 "([0-9.eE+-]+), \"localization_p50\": ([0-9.eE+-]+)")))
+      << report;
+  EXPECT_GT(std::stoi(latency[1]), 50) << "poses with the frame's stamps";
+  const double total_p50 = std::stod(latency[2]), localization_p50 = std::stod(latency[5]);
+  EXPECT_GT(std::stod(latency[4]), 0.0) << "the frame's DDS hop";
+  EXPECT_GT(localization_p50, 0.0);
+  EXPECT_GE(total_p50, localization_p50) << "each pose's total includes its localization hop";
+  std::cout << "[ figures ] vision pose latency, capture -> estimator: p50 " << total_p50
+            << " ms, p99 " << latency[3] << " ms over " << latency[1] << " poses\n";
+
   // The same mission and seed in one process (mav-eval mission's driver).
   Result<dataset::MissionSpec> spec = dataset::ParseMissionYaml(kOneGoalMission, one_goal_path_);
   ASSERT_TRUE(spec.ok()) << spec.status().ToString();

@@ -125,6 +125,16 @@ std::string MissionTable(const MissionFigures& r) {
         r.tick_ms->mean_ms, r.tick_ms->p95_ms,
         static_cast<unsigned long long>(r.lockstep_frames_missed.value_or(0)), r.setup_s);
   }
+  if (r.pose_latency && r.pose_latency->total.count > 0) {
+    const MissionFigures::PoseLatency& l = *r.pose_latency;
+    t += Format(
+        "  vision latency     capture -> estimator p50 %.1f / p99 %.1f / max %.1f ms (%llu poses); "
+        "p50 by hop: frame over DDS %.2f, localization %.1f, pose over DDS %.2f, into the "
+        "estimator %.3f ms\n",
+        l.total.median_ms, l.total.p99_ms, l.total.max_ms,
+        static_cast<unsigned long long>(l.total.count), l.frame_transport.median_ms,
+        l.localization.median_ms, l.pose_transport.median_ms, l.merge.median_ms);
+  }
   t += Format("  holds              %d\n", report.holds);
   return t;
 }
@@ -176,7 +186,19 @@ std::string MissionJson(const MissionFigures& r) {
     << ", \"plan_ms_mean\": " << JsonNumber(r.plan_ms.mean_ms) << "}";
   if (r.tick_ms) {
     j << ",\n  \"services\": {\"tick_ms_mean\": " << JsonNumber(r.tick_ms->mean_ms)
-      << ", \"tick_ms_p95\": " << JsonNumber(r.tick_ms->p95_ms) << "}";
+      << ", \"tick_ms_p95\": " << JsonNumber(r.tick_ms->p95_ms);
+    if (r.pose_latency) {
+      const MissionFigures::PoseLatency& l = *r.pose_latency;
+      j << ", \"pose_latency_ms\": {\"count\": " << l.total.count
+        << ", \"p50\": " << JsonNumber(l.total.median_ms)
+        << ", \"p99\": " << JsonNumber(l.total.p99_ms)
+        << ", \"max\": " << JsonNumber(l.total.max_ms)
+        << ", \"frame_transport_p50\": " << JsonNumber(l.frame_transport.median_ms)
+        << ", \"localization_p50\": " << JsonNumber(l.localization.median_ms)
+        << ", \"pose_transport_p50\": " << JsonNumber(l.pose_transport.median_ms)
+        << ", \"merge_p50\": " << JsonNumber(l.merge.median_ms) << "}";
+    }
+    j << "}";
   }
   j << ",\n  \"setup_s\": " << JsonNumber(r.setup_s) << ",\n  \"events\": [";
   for (size_t i = 0; i < report.events.size(); ++i) {

@@ -1,12 +1,17 @@
 #include "mav/sim/scenario_source.h"
 
+#include <sched.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <optional>
 
 #include "mav/common/check.h"
+#include "mav/common/log.h"
 #include "mav/common/time.h"
 #include "mav/dataset/euroc.h"
 #include "mav/dataset/occupancy_io.h"
@@ -195,18 +200,19 @@ Result<std::unique_ptr<ScenarioSource>> OpenEuroc(const std::string& directory) 
 // ---- FramePrefetcher --------------------------------------------------------------------------
 
 FramePrefetcher::FramePrefetcher(const std::shared_ptr<const ScenarioSource>& source, int threads,
-                                 int depth, OnRendered on_rendered)
+                                 int depth, OnRendered on_rendered, Priority priority)
     : FramePrefetcher(
           Frames{source->info().frames, [source](int64_t k) { return source->FrameTimeNs(k); },
                  [source](int64_t k, cv::Mat* left, cv::Mat* right) {
                    return source->ReadStereo(k, left, right);
                  }},
-          threads, depth, std::move(on_rendered)) {}
+          threads, depth, std::move(on_rendered), priority) {}
 
-FramePrefetcher::FramePrefetcher(Frames frames, int threads, int depth, OnRendered on_rendered)
+FramePrefetcher::FramePrefetcher(Frames frames, int threads, int depth, OnRendered on_rendered,
+                                 Priority priority)
     : frames_(std::move(frames)), depth_(std::max(1, depth)), on_rendered_(std::move(on_rendered)) {
   MAV_CHECK(threads >= 1);
-  for (int i = 0; i < threads; ++i) threads_.emplace_back([this] { Work(); });
+  for (int i = 0; i < threads; ++i) threads_.emplace_back([this, priority] { Work(priority); });
 }
 
 FramePrefetcher::~FramePrefetcher() {
@@ -251,7 +257,15 @@ Result<RenderedFrame> FramePrefetcher::Get(int64_t index) {
   return std::move(slot.frame);
 }
 
-void FramePrefetcher::Work() {
+void FramePrefetcher::Work(Priority priority) {
+  if (priority == Priority::kIdle) {
+    // Lowering a thread's own policy needs no privilege; 0 is the calling thread.
+    const sched_param param{};
+    if (sched_setscheduler(0, SCHED_IDLE, &param) != 0) {
+      MAV_LOG(kWarning) << "rendering thread: SCHED_IDLE refused (" << std::strerror(errno)
+                        << "); it renders at normal priority";
+    }
+  }
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
     auto next = slots_.end();

@@ -405,6 +405,23 @@ Result<bool> WaitForData(dds_entity_t waitset, int64_t timeout_ns, const std::st
   return n > 0;
 }
 
+namespace {
+void CallOnData(dds_entity_t /*reader*/, void* on_data) {
+  (*static_cast<std::function<void()>*>(on_data))();
+}
+}  // namespace
+
+Status SetDataListener(dds_entity_t reader, std::function<void()>* on_data,
+                       const std::string& name) {
+  dds_listener_t* listener = dds_create_listener(on_data);
+  if (listener == nullptr) return Status::Internal("dds_create_listener(" + name + ") failed");
+  dds_lset_data_available(listener, on_data != nullptr ? &CallOnData : nullptr);
+  // dds_set_listener copies the listener; with a null one it waits for callbacks in progress.
+  const dds_return_t ret = dds_set_listener(reader, on_data != nullptr ? listener : nullptr);
+  dds_delete_listener(listener);
+  return DdsStatus(ret, "dds_set_listener(" + name + ")");
+}
+
 }  // namespace internal
 
 }  // namespace mav::transport

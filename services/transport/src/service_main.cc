@@ -17,6 +17,16 @@ constexpr int64_t kDefaultShutdownGraceMs = 5000;
 
 void UseMappedLargeBlocks() { mallopt(M_MMAP_THRESHOLD, 128 * 1024); }
 
+void KeepLargeSampleBuffers() {
+  constexpr int kMmapThreshold = 4 << 20;
+  constexpr int kTrimThreshold = 32 << 20;
+  constexpr int kTopPad = 4 << 20;
+  if (mallopt(M_MMAP_THRESHOLD, kMmapThreshold) != 1 ||
+      mallopt(M_TRIM_THRESHOLD, kTrimThreshold) != 1 || mallopt(M_TOP_PAD, kTopPad) != 1) {
+    MAV_LOG(kWarning) << "mallopt refused the large-sample settings; DDS latency will be higher";
+  }
+}
+
 ServiceRunner::ServiceRunner(ServiceInfo info)
     : info_(std::move(info)), flags_(info_.program, info_.description) {
   BlockShutdownSignals();

@@ -1,5 +1,8 @@
 // Scenario tests: time base, ground truth vs IMU, calibrations, presets, thread safety.
 
+#include <sched.h>
+
+#include <atomic>
 #include <cmath>
 #include <thread>
 
@@ -9,6 +12,7 @@
 #include "mav/sim/occupancy.h"
 #include "mav/sim/presets.h"
 #include "mav/sim/scenario.h"
+#include "mav/sim/scenario_source.h"
 #include "mav/sim/world.h"
 
 namespace mav::sim {
@@ -99,6 +103,40 @@ TEST(ScenarioTest, ConcurrentRenderingEqualsSequential) {
   s.RenderStereo(23, &l[3], &r[3]);
   EXPECT_EQ(cv::norm(l[0], l[2], cv::NORM_INF), 0);
   EXPECT_EQ(cv::norm(r[1], r[3], cv::NORM_INF), 0);
+}
+
+// FramePrefetcher: frames come back in order with what the on_rendered hook added (the
+// simulator's CRC computed ahead), rendered under the scheduling policy asked for.
+TEST(FramePrefetcherTest, RendersAheadAtTheRequestedPriorityWithTheHooksResult) {
+  for (const FramePrefetcher::Priority priority :
+       {FramePrefetcher::Priority::kNormal, FramePrefetcher::Priority::kIdle}) {
+    std::atomic<int> other_policy{0};
+    const int want = priority == FramePrefetcher::Priority::kIdle ? SCHED_IDLE : SCHED_OTHER;
+    FramePrefetcher::Frames frames{6, [](int64_t k) { return 1000 * k; },
+                                   [&](int64_t k, cv::Mat* left, cv::Mat* right) {
+                                     if (sched_getscheduler(0) != want) ++other_policy;
+                                     *left =
+                                         cv::Mat(4, 4, CV_8UC1, cv::Scalar(static_cast<double>(k)));
+                                     *right = left->clone();
+                                     return Status::Ok();
+                                   }};
+    FramePrefetcher prefetcher(
+        std::move(frames), /*threads=*/2, /*depth=*/3,
+        [](RenderedFrame& frame) {
+          frame.crc32 = static_cast<uint32_t>(100 + frame.index);
+          return Status::Ok();
+        },
+        priority);
+    for (int64_t k = 0; k < 6; ++k) {
+      Result<RenderedFrame> frame = prefetcher.Get(k);
+      ASSERT_TRUE(frame.ok()) << frame.status().ToString();
+      EXPECT_EQ(frame->t_ns, 1000 * k);
+      EXPECT_EQ(frame->left.at<uint8_t>(0, 0), k);
+      ASSERT_TRUE(frame->crc32.has_value());
+      EXPECT_EQ(*frame->crc32, 100 + k);
+    }
+    EXPECT_EQ(other_policy.load(), 0) << "rendered outside the requested policy";
+  }
 }
 
 TEST(ScenarioTest, PlantRendersAndHasGroundTruthOccupancy) {

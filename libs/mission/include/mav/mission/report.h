@@ -54,6 +54,13 @@ struct MissionFigures {
   // and one mission tick's wall time.
   std::optional<uint64_t> lockstep_frames_missed;
   std::optional<RuntimeStats> tick_ms;
+  // Through the services with vision: each pose's path from its frame's capture stamp (the
+  // simulator's publish) into mav-control's estimator, wall clock, and its hops (mav-control's
+  // ControlStatus.pose_latency).
+  struct PoseLatency {
+    RuntimeStats total, frame_transport, localization, pose_transport, merge;
+  };
+  std::optional<PoseLatency> pose_latency;
 };
 
 // The live progress line on stderr: the vehicle's time, the phase, goal i of n, the speed, the

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -90,6 +91,9 @@ struct RenderedFrame {
   cv::Mat left;
   cv::Mat right;
   double render_ms = 0.0;
+  // A checksum of the images its consumer computed ahead, on the rendering thread (the
+  // simulator's DDS sink: the stereo sample's CRC-32), so that it is off the publishing path.
+  std::optional<uint32_t> crc32;
 };
 
 // Renders frames of a source ahead of their consumer on `threads` threads, at most `depth`
@@ -97,9 +101,14 @@ struct RenderedFrame {
 // consumer's work. `on_rendered` (optional) runs on the rendering thread right after a frame is
 // rendered (mav-sim generate writes its PNGs there, in parallel); its error becomes the frame's.
 // Get() returns frames in any order the caller asks for; frames outside the window are dropped.
+// With Priority::kIdle the rendering threads run under SCHED_IDLE: they take only CPU time no
+// other thread wants, so a real-time consumer (the simulator's publisher, the DDS subscribers on
+// the same machine) is never queued behind a render (docs/benchmarks.md, "DDS stereo stream").
+// A machine busy with other work then starves the rendering: use it for real-time playback only.
 class FramePrefetcher {
  public:
-  using OnRendered = std::function<Status(const RenderedFrame& frame)>;
+  using OnRendered = std::function<Status(RenderedFrame& frame)>;
+  enum class Priority { kNormal, kIdle };
   // What to render: `frames` stereo pairs; frame k at time_ns(k), rendered by read(k, l, r)
   // (called from several threads at once: it must be thread-safe).
   struct Frames {
@@ -110,8 +119,10 @@ class FramePrefetcher {
 
   // The frames of a source (kept alive by the prefetcher).
   FramePrefetcher(const std::shared_ptr<const ScenarioSource>& source, int threads = 2,
-                  int depth = 4, OnRendered on_rendered = {});
-  FramePrefetcher(Frames frames, int threads, int depth, OnRendered on_rendered = {});
+                  int depth = 4, OnRendered on_rendered = {},
+                  Priority priority = Priority::kNormal);
+  FramePrefetcher(Frames frames, int threads, int depth, OnRendered on_rendered = {},
+                  Priority priority = Priority::kNormal);
   ~FramePrefetcher();
   FramePrefetcher(const FramePrefetcher&) = delete;
   FramePrefetcher& operator=(const FramePrefetcher&) = delete;
@@ -126,7 +137,7 @@ class FramePrefetcher {
     Status status;
     RenderedFrame frame;
   };
-  void Work();
+  void Work(Priority priority);
   void ScheduleLocked(int64_t index);
 
   Frames frames_;

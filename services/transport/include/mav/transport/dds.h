@@ -40,6 +40,7 @@
 // noticed only when its participant's lease (Cyclone's default: 10 s) runs out.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -186,6 +187,10 @@ Result<uint32_t> AliveWriters(dds_entity_t reader, const std::string& name);
 Status WaitForMatch(dds_entity_t entity, bool is_writer, uint32_t count, int64_t timeout_ns,
                     const std::string& name);
 Result<bool> WaitForData(dds_entity_t waitset, int64_t timeout_ns, const std::string& name);
+// Sets (on_data non-null) or removes the reader's data-available listener; removing waits for a
+// call in progress (dds_set_listener does).
+Status SetDataListener(dds_entity_t reader, std::function<void()>* on_data,
+                       const std::string& name);
 }  // namespace internal
 
 template <typename T>
@@ -295,6 +300,40 @@ class Reader : public Entity {
                                                 &condition, &waitset));
     return Reader(handle, Entity(waitset), topic.name());
   }
+  ~Reader() { (void)ClearOnData(); }
+  Reader(Reader&& other) noexcept = default;
+  Reader& operator=(Reader&& other) noexcept {
+    if (this != &other) {
+      (void)ClearOnData();
+      // The waitset goes before the reader, as in the destructor.
+      waitset_ = std::move(other.waitset_);
+      name_ = std::move(other.name_);
+      on_data_ = std::move(other.on_data_);
+      Entity::operator=(static_cast<Entity&&>(other));
+    }
+    return *this;
+  }
+
+  // Calls `on_data` on the delivering thread whenever samples arrive (a DDS listener): Cyclone's
+  // receive thread for a writer in another process, the writer's own thread (inside dds_write)
+  // for one in this process. A consumer that takes there has them one thread hand-off sooner
+  // than one woken by WaitForData (docs/benchmarks.md, "DDS stereo stream"). `on_data` typically
+  // Takes; it must be short: it holds up the reception of everything else on the participant.
+  // Replaces an earlier callback. WaitForData keeps working (for samples the callback leaves).
+  Status OnData(std::function<void()> on_data) {
+    auto holder = std::make_unique<std::function<void()>>(std::move(on_data));
+    MAV_RETURN_IF_ERROR(internal::SetDataListener(handle(), holder.get(), name_));
+    on_data_ = std::move(holder);  // the previous callback is no longer called: free it
+    return Status::Ok();
+  }
+  // Removes the callback; returns after a call in progress has finished (so never call it from
+  // the callback itself).
+  Status ClearOnData() {
+    if (on_data_ == nullptr || !valid()) return Status::Ok();
+    Status status = internal::SetDataListener(handle(), nullptr, name_);
+    on_data_.reset();
+    return status;
+  }
 
   // Takes up to `max_samples` samples on loan (zero samples is not an error).
   Result<LoanedSamples<T>> Take(int32_t max_samples = 16) {
@@ -327,6 +366,8 @@ class Reader : public Entity {
       : Entity(handle), waitset_(std::move(waitset)), name_(std::move(name)) {}
   Entity waitset_;
   std::string name_;
+  // OnData's callback, on the heap so that its address (the listener's argument) survives moves.
+  std::unique_ptr<std::function<void()>> on_data_;
 };
 
 }  // namespace mav::transport

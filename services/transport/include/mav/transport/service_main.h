@@ -39,6 +39,14 @@ namespace mav::transport {
 // tests that measure a service's memory call it too.
 void UseMappedLargeBlocks();
 
+// The opposite choice, for a process whose large blocks are few fixed-size buffers recycled at
+// frame rate and whose latency matters (the simulator, `mavctl listen`): blocks up to 4 MiB come
+// from the heap and up to 32 MiB of free heap is kept (trim threshold; top pad 4 MiB). Mapping a
+// fresh 722 KB stereo sample for each copy (Cyclone's serialised form, the sequences of a take)
+// costs ~180 page faults, and halved the stream's one-way latency without it (p50 0.7 -> 0.35 ms;
+// docs/benchmarks.md, "DDS stereo stream"). Call it after ServiceRunner's constructor.
+void KeepLargeSampleBuffers();
+
 struct ServiceInfo {
   std::string program;      // "mav-mapping": names the process in messages and logs
   std::string description;  // --help text

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -26,6 +27,8 @@
 
 #include "mav/camera/rectifier.h"
 #include "mav/common/file.h"
+#include "mav/common/stats.h"
+#include "mav/common/time.h"
 #include "mav/dataset/occupancy_io.h"
 #include "mav/mapping/mesh.h"
 #include "mav/sim/occupancy.h"
@@ -864,6 +867,50 @@ double ResidentMiB() {
   long pages = 0, resident = 0;
   statm >> pages >> resident;
   return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1 << 20);
+}
+
+// QueryCollision answers from the last built map while a rebuild runs on the worker: it never
+// waits for the build (issue 26: "QueryCollision on the live map never waits for a rebuild").
+TEST_F(MappingContractTest, QueriesDuringARebuildAreAnsweredFromTheLastMap) {
+  ASSERT_NO_FATAL_FAILURE(InsertAll());
+  v1::BuildMapRequest build;
+  build.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  ASSERT_TRUE(Build(build).ok());
+  v1::QueryCollisionRequest query;
+  query.set_method(v1::MAPPING_METHOD_SPARSE_MESH);
+  *query.add_boxes() = MakeBox(-0.5, -0.5, 0.5, 0.5, 0.5, 1.5);
+  v1::QueryCollisionResponse before;
+  ASSERT_TRUE(Query(query, &before).ok());
+
+  std::atomic<bool> building{true};
+  grpc::Status rebuilt;
+  const int64_t build_start = MonotonicNowNs();
+  std::thread rebuild([&] {
+    rebuilt = Build(build);
+    building = false;
+  });
+  std::vector<double> during_ms;
+  while (building) {
+    const int64_t start = MonotonicNowNs();
+    v1::QueryCollisionResponse answer;
+    const grpc::Status status = Query(query, &answer);
+    const double ms = MsSince(start);
+    if (!building) break;  // it may have waited for the end: not counted
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_EQ(answer.states(0), before.states(0)) << "the same map answers";
+    during_ms.push_back(ms);
+  }
+  rebuild.join();
+  const double build_ms = MsSince(build_start);
+  ASSERT_TRUE(rebuilt.ok()) << rebuilt.error_message();
+  // A query that waited for the build would have ended with it: many were answered during it.
+  ASSERT_GE(during_ms.size(), 10u) << "a rebuild of " << build_ms << " ms";
+  const RuntimeStats stats = SummarizeRuntimes(during_ms);
+  std::printf(
+      "[ figures ] %zu queries during a %.0f ms rebuild: median %.3f ms, p99 %.3f ms, "
+      "max %.3f ms\n",
+      during_ms.size(), build_ms, stats.median_ms, stats.p99_ms, stats.max_ms);
+  EXPECT_LT(stats.median_ms, build_ms / 4) << "queries waited for the rebuild";
 }
 
 // A keyframe that adds no points costs only its own data: the same textured pair at the same

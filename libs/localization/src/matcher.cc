@@ -15,17 +15,24 @@ struct Best {
   uint32_t cost = std::numeric_limits<uint32_t>::max();
 };
 
-// Best match of `d` among the features of class `c` inside [u0, u1] x [v0, v1] (inclusive).
+// Best match of `d` among the features of class `c` inside [u0, u1] x [v0, v1] (inclusive): the
+// lowest SAD, the lowest index among equals (whatever the order of the visits). A window a few
+// rows tall (the stereo searches) is searched by rows, a square one by grid cells.
 Best FindBest(const FeatureSet& fs, const FeatureSet::Class& c, const Descriptor& d, int u0, int u1,
               int v0, int v1) {
   Best best;
-  fs.ForEachInWindow(c, u0, u1, v0, v1, [&](int i) {
+  auto visit = [&](int i) {
     const uint32_t cost = DescriptorSad(d, c.descriptors[i]);
-    if (cost < best.cost) {
+    if (cost < best.cost || (cost == best.cost && i < best.index)) {
       best.cost = cost;
       best.index = i;
     }
-  });
+  };
+  if (v1 - v0 < 4) {
+    fs.ForEachInRows(c, u0, u1, v0, v1, visit);
+  } else {
+    fs.ForEachInWindow(c, u0, u1, v0, v1, visit);
+  }
   return best;
 }
 

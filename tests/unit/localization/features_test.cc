@@ -96,6 +96,23 @@ void CheckFeatures(const std::vector<uint8_t>& img, int w, int h, const FeatureO
       const Descriptor d = fs.DescriptorAt(u, v);
       ASSERT_EQ(DescriptorSad(d, c.descriptors[i]), 0u);
     }
+    // ... and every such extremum inside the margins is a feature (the SIMD passes miss none).
+    int extrema = 0;
+    for (int v = m; v < h - m; ++v) {
+      for (int u = m; u < w - m; ++u) {
+        const int val = sign * r[v * w + u];
+        bool is_extremum = val >= options.response_threshold;
+        for (int dy = -n; dy <= n && is_extremum; ++dy) {
+          for (int dx = -n; dx <= n && is_extremum; ++dx) {
+            const int other = sign * r[(v + dy) * w + u + dx];
+            const bool earlier_neighbour = std::abs(dx) <= 1 && (dy == -1 || (dy == 0 && dx == -1));
+            is_extremum = other < val || (other == val && !earlier_neighbour);
+          }
+        }
+        extrema += is_extremum;
+      }
+    }
+    EXPECT_EQ(c.size(), extrema) << "class " << k;
     total += c.size();
   }
   EXPECT_EQ(total, fs.TotalFeatures());

@@ -85,6 +85,10 @@ class FeatureSet {
     std::vector<int16_t> strength;        // |filter response| (>= response_threshold)
     std::vector<Descriptor> descriptors;  // parallel to u, v
     std::vector<int32_t> cell_start;      // features of cell c: [cell_start[c], cell_start[c+1])
+    // The same features in raster order (by v, then u): row_order[row_start[v] ..
+    // row_start[v + 1]) are the indices of the features on row v, left to right.
+    std::vector<int32_t> row_order;
+    std::vector<int32_t> row_start;  // height() + 1 entries
     int size() const { return static_cast<int>(u.size()); }
   };
 
@@ -124,6 +128,32 @@ class FeatureSet {
       for (int i = first; i < last; ++i) {
         const int u = c.u[i], v = c.v[i];
         if (u < u0 || u > u1 || v < v0 || v > v1) continue;
+        visit(i);
+      }
+    }
+  }
+
+  // ForEachInWindow for a window a few rows tall (a stereo search along the epipolar line):
+  // visits exactly the window's features, row by row and left to right, instead of every
+  // feature of the cells it overlaps (a 3-row window in 16-pixel cells scans ~6 times more).
+  // The order is not ForEachInWindow's (by index): a search keeping the first best must break
+  // ties by the lower index to find the same feature.
+  template <typename Visit>
+  void ForEachInRows(const Class& c, int u0, int u1, int v0, int v1, Visit&& visit) const {
+    if (c.row_start.size() != static_cast<size_t>(height_) + 1) {
+      ForEachInWindow(c, u0, u1, v0, v1, visit);  // a set not made by FeatureExtractor
+      return;
+    }
+    u0 = std::max(u0, 0);
+    v0 = std::max(v0, 0);
+    u1 = std::min(u1, width_ - 1);
+    v1 = std::min(v1, height_ - 1);
+    for (int v = v0; v <= v1; ++v) {
+      for (int j = c.row_start[v]; j < c.row_start[v + 1]; ++j) {
+        const int i = c.row_order[j];
+        const int u = c.u[i];
+        if (u < u0) continue;
+        if (u > u1) break;
         visit(i);
       }
     }

@@ -268,14 +268,16 @@ Result<ListenReport> Listen(const ListenOptions& options, std::ostream& progress
   if (!options.IsValid(&why)) return Status::InvalidArgument(why);
   MAV_ASSIGN_OR_RETURN(transport::Participant participant,
                        transport::Participant::Create(options.dds));
-  Subscriptions subs;
-  MAV_RETURN_IF_ERROR(Subscribe(participant, options, &subs));
-
   // `received` is shared with the listener's thread (Cyclone's receive thread) when it takes the
-  // stereo frames; its first error ends the loop.
+  // stereo frames; its first error ends the loop. Declared before the subscriptions so that on
+  // every return the readers (whose destructors remove the listener and wait for a call in
+  // progress) go first.
   std::mutex mutex;
   Received received;
   Status listener_error;
+  Subscriptions subs;
+  MAV_RETURN_IF_ERROR(Subscribe(participant, options, &subs));
+
   const bool stereo_by_listener = subs.stereo.has_value() && options.wake == "listener";
   if (stereo_by_listener) {
     MAV_RETURN_IF_ERROR(subs.stereo->OnData([&] {

@@ -6,6 +6,14 @@
 
 #include "mav/common/check.h"
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+// AVX2 kernels compiled beside the baseline (SSE2) ones and chosen at run time
+// (FeatureOptions::use_avx2): integer max, min and compares, the same output either way.
+#define MAV_FEATURES_AVX2 1
+#define MAV_TARGET_AVX2 __attribute__((target("avx2")))
+#endif
+
 namespace mav::localization {
 namespace {
 
@@ -82,78 +90,206 @@ void RunningColumnExtremaN(const int16_t* __restrict imax, const int16_t* __rest
   }
 }
 
-void RunningExtrema(const int16_t* in, int x0, int x1, int n, int16_t* omax, int16_t* omin) {
+#ifdef MAV_FEATURES_AVX2
+MAV_TARGET_AVX2 inline __m256i Load16(const int16_t* p) {
+  return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+}
+
+// The two passes 16 pixels at a time; the rest of the row with the SSE2 kernels.
+template <int N>
+MAV_TARGET_AVX2 void RunningExtremaAvx2N(const int16_t* __restrict in, int x0, int x1,
+                                         int16_t* __restrict omax, int16_t* __restrict omin) {
+  int x = x0;
+  for (; x + 16 <= x1; x += 16) {
+    const __m256i c = Load16(in + x);
+    __m256i a = c, b = c;
+    for (int k = 1; k <= N; ++k) {
+      const __m256i l = Load16(in + x - k), r = Load16(in + x + k);
+      a = _mm256_max_epi16(a, _mm256_max_epi16(l, r));
+      b = _mm256_min_epi16(b, _mm256_min_epi16(l, r));
+    }
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(omax + x), a);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(omin + x), b);
+  }
+  _mm256_zeroupper();  // GCC leaves it out before a tail call; legacy SSE would pay for it
+  RunningExtremaN<N>(in, x, x1, omax, omin);
+}
+
+template <int N>
+MAV_TARGET_AVX2 void RunningColumnExtremaAvx2N(const int16_t* __restrict imax,
+                                               const int16_t* __restrict imin, int x0, int x1,
+                                               int stride, int16_t* __restrict omax,
+                                               int16_t* __restrict omin) {
+  int x = x0;
+  for (; x + 16 <= x1; x += 16) {
+    __m256i a = Load16(imax + x), b = Load16(imin + x);
+    for (int k = 1; k <= N; ++k) {
+      a = _mm256_max_epi16(
+          a, _mm256_max_epi16(Load16(imax + x - k * stride), Load16(imax + x + k * stride)));
+      b = _mm256_min_epi16(
+          b, _mm256_min_epi16(Load16(imin + x - k * stride), Load16(imin + x + k * stride)));
+    }
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(omax + x), a);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(omin + x), b);
+  }
+  _mm256_zeroupper();
+  RunningColumnExtremaN<N>(imax, imin, x, x1, stride, omax, omin);
+}
+#endif
+
+// The row and the column pass for radius N, AVX2 when `avx2` (the caller checked the CPU),
+// else SSE2.
+template <int N>
+struct RowPass {
+  static void Run(bool avx2, const int16_t* in, int x0, int x1, int16_t* omax, int16_t* omin) {
+#ifdef MAV_FEATURES_AVX2
+    if (avx2) return RunningExtremaAvx2N<N>(in, x0, x1, omax, omin);
+#endif
+    (void)avx2;
+    RunningExtremaN<N>(in, x0, x1, omax, omin);
+  }
+};
+
+template <int N>
+struct ColumnPass {
+  static void Run(bool avx2, const int16_t* imax, const int16_t* imin, int x0, int x1, int stride,
+                  int16_t* omax, int16_t* omin) {
+#ifdef MAV_FEATURES_AVX2
+    if (avx2) return RunningColumnExtremaAvx2N<N>(imax, imin, x0, x1, stride, omax, omin);
+#endif
+    (void)avx2;
+    RunningColumnExtremaN<N>(imax, imin, x0, x1, stride, omax, omin);
+  }
+};
+
+// Pass<n>::Run(args) for a run-time radius n in [1, 8]: a template parameter, so that the
+// kernels' inner loops unroll.
+template <template <int> class Pass, typename... Args>
+void WithRadius(int n, Args... args) {
   switch (n) {
     case 1:
-      return RunningExtremaN<1>(in, x0, x1, omax, omin);
+      return Pass<1>::Run(args...);
     case 2:
-      return RunningExtremaN<2>(in, x0, x1, omax, omin);
+      return Pass<2>::Run(args...);
     case 3:
-      return RunningExtremaN<3>(in, x0, x1, omax, omin);
+      return Pass<3>::Run(args...);
     case 4:
-      return RunningExtremaN<4>(in, x0, x1, omax, omin);
+      return Pass<4>::Run(args...);
     case 5:
-      return RunningExtremaN<5>(in, x0, x1, omax, omin);
+      return Pass<5>::Run(args...);
     case 6:
-      return RunningExtremaN<6>(in, x0, x1, omax, omin);
+      return Pass<6>::Run(args...);
     case 7:
-      return RunningExtremaN<7>(in, x0, x1, omax, omin);
+      return Pass<7>::Run(args...);
     default:
-      return RunningExtremaN<8>(in, x0, x1, omax, omin);
+      return Pass<8>::Run(args...);
   }
 }
 
-void RunningColumnExtrema(const int16_t* imax, const int16_t* imin, int x0, int x1, int n,
-                          int stride, int16_t* omax, int16_t* omin) {
-  switch (n) {
-    case 1:
-      return RunningColumnExtremaN<1>(imax, imin, x0, x1, stride, omax, omin);
-    case 2:
-      return RunningColumnExtremaN<2>(imax, imin, x0, x1, stride, omax, omin);
-    case 3:
-      return RunningColumnExtremaN<3>(imax, imin, x0, x1, stride, omax, omin);
-    case 4:
-      return RunningColumnExtremaN<4>(imax, imin, x0, x1, stride, omax, omin);
-    case 5:
-      return RunningColumnExtremaN<5>(imax, imin, x0, x1, stride, omax, omin);
-    case 6:
-      return RunningColumnExtremaN<6>(imax, imin, x0, x1, stride, omax, omin);
-    case 7:
-      return RunningColumnExtremaN<7>(imax, imin, x0, x1, stride, omax, omin);
-    default:
-      return RunningColumnExtremaN<8>(imax, imin, x0, x1, stride, omax, omin);
+void RunningExtrema(bool avx2, const int16_t* in, int x0, int x1, int n, int16_t* omax,
+                    int16_t* omin) {
+  WithRadius<RowPass>(n, avx2, in, x0, x1, omax, omin);
+}
+
+void RunningColumnExtrema(bool avx2, const int16_t* imax, const int16_t* imin, int x0, int x1,
+                          int n, int stride, int16_t* omax, int16_t* omin) {
+  WithRadius<ColumnPass>(n, avx2, imax, imin, x0, x1, stride, omax, omin);
+}
+
+// The pixels x in [x0, x1) of a row that equal the running maximum mx[x] at >= threshold or the
+// running minimum mn[x] at <= -threshold, written to out in increasing x; returns how many.
+int FindCandidatesSse2(const int16_t* row, const int16_t* mx, const int16_t* mn, int x0, int x1,
+                       int threshold, int16_t* out) {
+  int count = 0, x = x0;
+  auto scalar = [&](int xx) {
+    const int16_t val = row[xx];
+    if ((val == mx[xx] && val >= threshold) || (val == mn[xx] && val <= -threshold)) {
+      out[count++] = static_cast<int16_t>(xx);
+    }
+  };
+#ifdef __SSE2__
+  const __m128i tau_m1 = _mm_set1_epi16(static_cast<int16_t>(threshold - 1));
+  const __m128i neg_tau_p1 = _mm_set1_epi16(static_cast<int16_t>(-threshold + 1));
+  auto load = [](const int16_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); };
+  for (; x + 8 <= x1; x += 8) {
+    const __m128i val = load(row + x);
+    const __m128i is_max =
+        _mm_and_si128(_mm_cmpeq_epi16(val, load(mx + x)), _mm_cmpgt_epi16(val, tau_m1));
+    const __m128i is_min =
+        _mm_and_si128(_mm_cmpeq_epi16(val, load(mn + x)), _mm_cmplt_epi16(val, neg_tau_p1));
+    unsigned mask = static_cast<unsigned>(_mm_movemask_epi8(_mm_or_si128(is_max, is_min)));
+    while (mask != 0) {
+      const int lane = __builtin_ctz(mask) / 2;
+      mask &= ~(3u << (2 * lane));
+      out[count++] = static_cast<int16_t>(x + lane);
+    }
   }
+#endif
+  for (; x < x1; ++x) scalar(x);
+  return count;
+}
+
+#ifdef MAV_FEATURES_AVX2
+MAV_TARGET_AVX2 int FindCandidatesAvx2(const int16_t* row, const int16_t* mx, const int16_t* mn,
+                                       int x0, int x1, int threshold, int16_t* out) {
+  const __m256i tau_m1 = _mm256_set1_epi16(static_cast<int16_t>(threshold - 1));
+  const __m256i neg_tau_p1 = _mm256_set1_epi16(static_cast<int16_t>(-threshold + 1));
+  int count = 0, x = x0;
+  for (; x + 16 <= x1; x += 16) {
+    const __m256i val = Load16(row + x);
+    const __m256i is_max =
+        _mm256_and_si256(_mm256_cmpeq_epi16(val, Load16(mx + x)), _mm256_cmpgt_epi16(val, tau_m1));
+    const __m256i is_min = _mm256_and_si256(_mm256_cmpeq_epi16(val, Load16(mn + x)),
+                                            _mm256_cmpgt_epi16(neg_tau_p1, val));
+    unsigned mask = static_cast<unsigned>(_mm256_movemask_epi8(_mm256_or_si256(is_max, is_min)));
+    while (mask != 0) {
+      const int lane = __builtin_ctz(mask) / 2;
+      mask &= ~(3u << (2 * lane));
+      out[count++] = static_cast<int16_t>(x + lane);
+    }
+  }
+  _mm256_zeroupper();  // before the SSE2 code of the rest
+  return count + FindCandidatesSse2(row, mx, mn, x, x1, threshold, out + count);
+}
+#endif
+
+int FindCandidates(bool avx2, const int16_t* row, const int16_t* mx, const int16_t* mn, int x0,
+                   int x1, int threshold, int16_t* out) {
+#ifdef MAV_FEATURES_AVX2
+  if (avx2) return FindCandidatesAvx2(row, mx, mn, x0, x1, threshold, out);
+#endif
+  (void)avx2;
+  return FindCandidatesSse2(row, mx, mn, x0, x1, threshold, out);
 }
 
 // Non-maximum suppression by grey-level dilation: the (2n+1)x(2n+1) running maximum and minimum
-// are computed separably (rows, then columns) with branch-free loops the compiler vectorises;
+// are computed separably (rows, then columns; 16 or 8 pixels at a time with AVX2 or SSE2);
 // a pixel is a maximum (minimum) feature when it equals the running maximum (minimum) and passes
 // the threshold. Plateaus are broken by keeping only the first pixel in raster order among equal
 // 8-neighbours.
-void SuppressNonExtrema(const int16_t* r, int w, int h, int lo_x, int hi_x, int lo_y, int hi_y,
-                        int n, int threshold, int scale, std::vector<int16_t>* scratch,
+void SuppressNonExtrema(bool avx2, const int16_t* r, int w, int h, int lo_x, int hi_x, int lo_y,
+                        int hi_y, int n, int threshold, int scale, std::vector<int16_t>* scratch,
                         std::vector<RawFeature>* maxima, std::vector<RawFeature>* minima) {
   // Rows [lo_y - n, hi_y + n) and columns [lo_x - n, hi_x + n) must hold valid responses.
   const int y0 = std::max(lo_y - n, 2), y1 = std::min(hi_y + n, h - 2);
   // Columns: the row pass reads x - n .. x + n, which must stay inside the row.
   const int x0 = std::max(lo_x, std::max(2, n)), x1 = std::min(hi_x, w - 2 - n);
   if (x0 >= x1 || lo_y >= hi_y) return;
-  scratch->resize(static_cast<size_t>(2) * w * h + 3 * w + 8);
+  scratch->resize(static_cast<size_t>(2) * w * h + 4 * w + 8);
   int16_t* rmax = scratch->data();
   int16_t* rmin = rmax + static_cast<size_t>(w) * h;
   int16_t* cmax = rmin + static_cast<size_t>(w) * h;
   int16_t* cmin = cmax + w;
+  int16_t* candidates = cmin + w;
   for (int y = y0; y < y1; ++y) {
-    RunningExtrema(r + static_cast<size_t>(y) * w, x0, x1, n, rmax + static_cast<size_t>(y) * w,
-                   rmin + static_cast<size_t>(y) * w);
+    RunningExtrema(avx2, r + static_cast<size_t>(y) * w, x0, x1, n,
+                   rmax + static_cast<size_t>(y) * w, rmin + static_cast<size_t>(y) * w);
   }
   for (int y = lo_y; y < hi_y; ++y) {
-    const int16_t* __restrict mx = cmax;
-    const int16_t* __restrict mn = cmin;
     if (y - n >= y0 && y + n < y1) {
       // Column pass: the same kernel with a stride of one row, centred on row y.
-      RunningColumnExtrema(rmax + static_cast<size_t>(y) * w, rmin + static_cast<size_t>(y) * w, x0,
-                           x1, n, w, cmax, cmin);
+      RunningColumnExtrema(avx2, rmax + static_cast<size_t>(y) * w,
+                           rmin + static_cast<size_t>(y) * w, x0, x1, n, w, cmax, cmin);
     } else {
       const int ya = std::max(y - n, y0), yb = std::min(y + n, y1 - 1);
       for (int x = x0; x < x1; ++x) {
@@ -167,47 +303,84 @@ void SuppressNonExtrema(const int16_t* r, int w, int h, int lo_x, int hi_x, int 
         cmin[x] = b;
       }
     }
+    // The pixels equal to the running maximum or minimum past the threshold (vector compares),
+    // then the plateau test on those few: an equal neighbour earlier in raster order wins.
     const int16_t* row = r + static_cast<size_t>(y) * w;
-    auto test = [&](int x) {
+    const int count = FindCandidates(avx2, row, cmax, cmin, x0, x1, threshold, candidates);
+    for (int c = 0; c < count; ++c) {
+      const int x = candidates[c];
       const int16_t val = row[x];
-      if (val == mx[x] && val >= threshold) {
-        // Plateau: an equal neighbour earlier in raster order wins.
-        if (row[x - 1] != val && row[x - w - 1] != val && row[x - w] != val &&
-            row[x - w + 1] != val) {
-          maxima->push_back(
-              {static_cast<int16_t>(x * scale), static_cast<int16_t>(y * scale), val});
-        }
-      } else if (val == mn[x] && val <= -threshold) {
-        if (row[x - 1] != val && row[x - w - 1] != val && row[x - w] != val &&
-            row[x - w + 1] != val) {
-          minima->push_back({static_cast<int16_t>(x * scale), static_cast<int16_t>(y * scale),
-                             static_cast<int16_t>(-val)});
-        }
+      if (row[x - 1] == val || row[x - w - 1] == val || row[x - w] == val ||
+          row[x - w + 1] == val) {
+        continue;
       }
-    };
-    // Candidates: 8 pixels at a time with SSE2 compares; the scalar test below only runs for
-    // pixels that equal the running maximum/minimum and pass the threshold.
-    int x = x0;
-#ifdef __SSE2__
-    const __m128i tau_m1 = _mm_set1_epi16(static_cast<int16_t>(threshold - 1));
-    const __m128i neg_tau_p1 = _mm_set1_epi16(static_cast<int16_t>(-threshold + 1));
-    for (; x + 8 <= x1; x += 8) {
-      const __m128i val = _mm_loadu_si128(reinterpret_cast<const __m128i*>(row + x));
-      const __m128i is_max = _mm_and_si128(
-          _mm_cmpeq_epi16(val, _mm_loadu_si128(reinterpret_cast<const __m128i*>(mx + x))),
-          _mm_cmpgt_epi16(val, tau_m1));
-      const __m128i is_min = _mm_and_si128(
-          _mm_cmpeq_epi16(val, _mm_loadu_si128(reinterpret_cast<const __m128i*>(mn + x))),
-          _mm_cmplt_epi16(val, neg_tau_p1));
-      int mask = _mm_movemask_epi8(_mm_or_si128(is_max, is_min));
-      while (mask != 0) {
-        const int lane = __builtin_ctz(mask) / 2;
-        mask &= ~(3 << (2 * lane));
-        test(x + lane);
+      if (val == cmax[x] && val >= threshold) {
+        maxima->push_back({static_cast<int16_t>(x * scale), static_cast<int16_t>(y * scale), val});
+      } else {
+        minima->push_back({static_cast<int16_t>(x * scale), static_cast<int16_t>(y * scale),
+                           static_cast<int16_t>(-val)});
       }
     }
+  }
+}
+
+// The horizontal and vertical 3x3 Sobel responses of `image`, as bytes (Descriptor's mapping),
+// 128 on the one-pixel border.
+void ComputeSobelBytes(const ImageView& image, std::vector<uint8_t>* sobel_u,
+                       std::vector<uint8_t>* sobel_v, std::vector<int16_t>* scratch) {
+  const int w = image.width, h = image.height;
+  const size_t n = static_cast<size_t>(w) * h;
+  sobel_u->resize(n);
+  sobel_v->resize(n);
+  for (std::vector<uint8_t>* sb : {sobel_u, sobel_v}) {
+    std::fill(sb->begin(), sb->begin() + w, 128);
+    std::fill(sb->end() - w, sb->end(), 128);
+    for (int y = 1; y < h - 1; ++y)
+      (*sb)[static_cast<size_t>(y) * w] = (*sb)[static_cast<size_t>(y) * w + w - 1] = 128;
+  }
+  scratch->resize(2 * static_cast<size_t>(w));
+  for (int y = 1; y < h - 1; ++y) {
+    const uint8_t* __restrict p0 = image.data + static_cast<size_t>(y - 1) * image.stride;
+    const uint8_t* __restrict p1 = p0 + image.stride;
+    const uint8_t* __restrict p2 = p1 + image.stride;
+    int16_t* __restrict vs = scratch->data();  // vertical [1 2 1] smoothing
+    int16_t* __restrict hd = vs + w;           // vertical [-1 0 1] difference
+    for (int x = 0; x < w; ++x) {
+      vs[x] = static_cast<int16_t>(p0[x] + 2 * p1[x] + p2[x]);
+      hd[x] = static_cast<int16_t>(p2[x] - p0[x]);
+    }
+    uint8_t* __restrict su = sobel_u->data() + y * w;
+    uint8_t* __restrict sv = sobel_v->data() + y * w;
+    int x = 1;
+#ifdef __SSE2__
+    // SobelToByte is an arithmetic shift and packus's saturation to [0, 255].
+    const __m128i bias = _mm_set1_epi16(128);
+    auto load = [](const int16_t* p) {
+      return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+    };
+    for (; x + 16 <= w - 1; x += 16) {
+      __m128i bytes_u[2], bytes_v[2];
+      for (int half = 0; half < 2; ++half) {
+        const int xx = x + 8 * half;
+        const __m128i gu = _mm_sub_epi16(load(vs + xx + 1), load(vs + xx - 1));
+        const __m128i mid = load(hd + xx);
+        const __m128i gv = _mm_add_epi16(_mm_add_epi16(load(hd + xx - 1), load(hd + xx + 1)),
+                                         _mm_add_epi16(mid, mid));
+        bytes_u[half] = _mm_add_epi16(_mm_srai_epi16(gu, 2), bias);
+        bytes_v[half] = _mm_add_epi16(_mm_srai_epi16(gv, 2), bias);
+      }
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(su + x),
+                       _mm_packus_epi16(bytes_u[0], bytes_u[1]));
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(sv + x),
+                       _mm_packus_epi16(bytes_v[0], bytes_v[1]));
+    }
 #endif
-    for (; x < x1; ++x) test(x);
+    for (; x < w - 1; ++x) {
+      const int gu = vs[x + 1] - vs[x - 1];
+      const int gv = hd[x - 1] + 2 * hd[x] + hd[x + 1];
+      su[x] = SobelToByte(gu);
+      sv[x] = SobelToByte(gv);
+    }
   }
 }
 
@@ -249,8 +422,14 @@ Descriptor FeatureSet::DescriptorAt(int u, int v) const {
   return d;
 }
 
-void ComputeFilterResponses(const ImageView& image, std::vector<int16_t>* blob,
-                            std::vector<int16_t>* corner, std::vector<int16_t>* scratch) {
+namespace {
+
+// The body of ComputeFilterResponses, inlined into a baseline and an AVX2 copy: its loops are
+// plain int16 arithmetic that GCC vectorises for whichever target the copy has.
+__attribute__((always_inline)) inline void FilterResponses(const ImageView& image,
+                                                           std::vector<int16_t>* blob,
+                                                           std::vector<int16_t>* corner,
+                                                           std::vector<int16_t>* scratch) {
   const int w = image.width, h = image.height;
   const size_t n = static_cast<size_t>(w) * h;
   if (w < 5 || h < 5) {
@@ -322,10 +501,43 @@ void ComputeFilterResponses(const ImageView& image, std::vector<int16_t>* blob,
   }
 }
 
+#ifdef MAV_FEATURES_AVX2
+MAV_TARGET_AVX2 void FilterResponsesAvx2(const ImageView& image, std::vector<int16_t>* blob,
+                                         std::vector<int16_t>* corner,
+                                         std::vector<int16_t>* scratch) {
+  FilterResponses(image, blob, corner, scratch);
+}
+#endif
+
+bool CpuHasAvx2() {
+#ifdef MAV_FEATURES_AVX2
+  return __builtin_cpu_supports("avx2");
+#else
+  return false;
+#endif
+}
+
+}  // namespace
+
+void ComputeFilterResponses(const ImageView& image, std::vector<int16_t>* blob,
+                            std::vector<int16_t>* corner, std::vector<int16_t>* scratch,
+                            bool use_avx2) {
+#ifdef MAV_FEATURES_AVX2
+  if (use_avx2 && CpuHasAvx2()) return FilterResponsesAvx2(image, blob, corner, scratch);
+#endif
+  (void)use_avx2;
+  FilterResponses(image, blob, corner, scratch);
+}
+
 FeatureExtractor::FeatureExtractor(const FeatureOptions& options) : options_(options) {
   std::string why;
   MAV_CHECK(options_.IsValid(&why)) << why;
+#ifdef MAV_FEATURES_AVX2
+  avx2_ = options_.use_avx2 && CpuHasAvx2();
+#endif
 }
+
+bool FeatureExtractor::UsesAvx2() const { return avx2_; }
 
 void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   const int w = image.width, h = image.height;
@@ -341,6 +553,7 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
     c.descriptors.clear();
     c.cell_start.assign(static_cast<size_t>(out->cols_) * out->rows_ + 1, 0);
     c.row_order.clear();
+    c.row_u.clear();
     c.row_start.assign(static_cast<size_t>(std::max(h, 0)) + 1, 0);
   }
   const int m = FeatureSet::kDescriptorMargin;
@@ -351,35 +564,7 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   }
 
   // Sobel images (full resolution) for the descriptors.
-  const size_t n = static_cast<size_t>(w) * h;
-  out->sobel_u_.resize(n);
-  out->sobel_v_.resize(n);
-  for (std::vector<uint8_t>* sb : {&out->sobel_u_, &out->sobel_v_}) {
-    std::fill(sb->begin(), sb->begin() + w, 128);
-    std::fill(sb->end() - w, sb->end(), 128);
-    for (int y = 1; y < h - 1; ++y)
-      (*sb)[static_cast<size_t>(y) * w] = (*sb)[static_cast<size_t>(y) * w + w - 1] = 128;
-  }
-  scratch_.resize(2 * static_cast<size_t>(w));
-  for (int y = 1; y < h - 1; ++y) {
-    const uint8_t* __restrict p0 = image.data + static_cast<size_t>(y - 1) * image.stride;
-    const uint8_t* __restrict p1 = p0 + image.stride;
-    const uint8_t* __restrict p2 = p1 + image.stride;
-    int16_t* __restrict vs = scratch_.data();  // vertical [1 2 1] smoothing
-    int16_t* __restrict hd = vs + w;           // vertical [-1 0 1] difference
-    for (int x = 0; x < w; ++x) {
-      vs[x] = static_cast<int16_t>(p0[x] + 2 * p1[x] + p2[x]);
-      hd[x] = static_cast<int16_t>(p2[x] - p0[x]);
-    }
-    uint8_t* __restrict su = out->sobel_u_.data() + y * w;
-    uint8_t* __restrict sv = out->sobel_v_.data() + y * w;
-    for (int x = 1; x < w - 1; ++x) {
-      const int gu = vs[x + 1] - vs[x - 1];
-      const int gv = hd[x - 1] + 2 * hd[x] + hd[x + 1];
-      su[x] = SobelToByte(gu);
-      sv[x] = SobelToByte(gv);
-    }
-  }
+  ComputeSobelBytes(image, &out->sobel_u_, &out->sobel_v_, &scratch_);
 
   // Filter responses on the detection image.
   ImageView det = image;
@@ -399,7 +584,7 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
     det = ImageView{half_.data(), hw, hh, hw};
     scale = 2;
   }
-  ComputeFilterResponses(det, &blob_, &corner_, &scratch_);
+  ComputeFilterResponses(det, &blob_, &corner_, &scratch_, avx2_);
 
   // Candidate range in detection pixels such that full-resolution positions keep the margin.
   const int lo = (m + scale - 1) / scale;
@@ -407,27 +592,40 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   const int hi_y = (h - m - 1) / scale + 1;
   std::array<std::vector<RawFeature>, kNumFeatureClasses> raw;
   for (auto& r : raw) r.reserve(4096);
-  SuppressNonExtrema(blob_.data(), det.width, det.height, lo, hi_x, lo, hi_y, options_.nms_radius,
-                     options_.response_threshold, scale, &scratch_, &raw[kBlobMax], &raw[kBlobMin]);
-  SuppressNonExtrema(corner_.data(), det.width, det.height, lo, hi_x, lo, hi_y, options_.nms_radius,
-                     options_.response_threshold, scale, &scratch_, &raw[kCornerMax],
-                     &raw[kCornerMin]);
+  SuppressNonExtrema(avx2_, blob_.data(), det.width, det.height, lo, hi_x, lo, hi_y,
+                     options_.nms_radius, options_.response_threshold, scale, &scratch_,
+                     &raw[kBlobMax], &raw[kBlobMin]);
+  SuppressNonExtrema(avx2_, corner_.data(), det.width, det.height, lo, hi_x, lo, hi_y,
+                     options_.nms_radius, options_.response_threshold, scale, &scratch_,
+                     &raw[kCornerMax], &raw[kCornerMin]);
 
-  // Counting sort by grid cell, then descriptors in sorted order.
+  // Counting sort by grid cell, then descriptors in sorted order. The cell of a pixel from
+  // tables (the cell size is not a constant: no divisions per feature).
   const int cell = out->cell_, cols = out->cols_;
+  cell_col_.resize(w);
+  cell_row_.resize(h);
+  for (int x = 0; x < w; ++x) cell_col_[x] = x / cell;
+  for (int y = 0; y < h; ++y) cell_row_[y] = (y / cell) * cols;
+  // The descriptor's 16 positions as offsets into the Sobel images.
+  int offsets[16];
+  for (int i = 0; i < 16; ++i) offsets[i] = kPatternV[i] * w + kPatternU[i];
   for (int k = 0; k < kNumFeatureClasses; ++k) {
     FeatureSet::Class& c = out->classes_[k];
     const std::vector<RawFeature>& r = raw[k];
     std::vector<int32_t>& start = c.cell_start;
-    for (const RawFeature& f : r) ++start[(f.v / cell) * cols + f.u / cell + 1];
+    auto cell_of = [&](const RawFeature& f) { return cell_row_[f.v] + cell_col_[f.u]; };
+    for (const RawFeature& f : r) ++start[cell_of(f) + 1];
     for (size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
     order_.assign(r.size(), 0);
     std::vector<int32_t> fill(start.begin(), start.end() - 1);
-    for (size_t i = 0; i < r.size(); ++i)
-      order_[fill[(r[i].v / cell) * cols + r[i].u / cell]++] = static_cast<int32_t>(i);
+    for (size_t i = 0; i < r.size(); ++i) order_[fill[cell_of(r[i])]++] = static_cast<int32_t>(i);
     // The suppression emits in raster order: raw feature j is the j-th by (v, u).
     c.row_order.resize(r.size());
-    for (size_t i = 0; i < r.size(); ++i) c.row_order[order_[i]] = static_cast<int32_t>(i);
+    c.row_u.resize(r.size());
+    for (size_t i = 0; i < r.size(); ++i) {
+      c.row_order[order_[i]] = static_cast<int32_t>(i);
+      c.row_u[order_[i]] = r[order_[i]].u;
+    }
     for (const RawFeature& f : r) ++c.row_start[f.v + 1];
     for (size_t v = 1; v < c.row_start.size(); ++v) c.row_start[v] += c.row_start[v - 1];
     c.u.resize(r.size());
@@ -439,7 +637,14 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
       c.u[i] = f.u;
       c.v[i] = f.v;
       c.strength[i] = f.strength;
-      c.descriptors[i] = out->DescriptorAt(f.u, f.v);
+      // DescriptorAt without its check: every feature keeps the margin.
+      const uint8_t* su = out->sobel_u_.data() + f.v * w + f.u;
+      const uint8_t* sv = out->sobel_v_.data() + f.v * w + f.u;
+      uint8_t* d = c.descriptors[i].bytes.data();
+      for (int j = 0; j < 16; ++j) {
+        d[j] = su[offsets[j]];
+        d[16 + j] = sv[offsets[j]];
+      }
     }
   }
 }

@@ -54,53 +54,82 @@ struct MotionPredictor {
   }
 };
 
-// Sum of squared differences of both Sobel images over a (2r+1)^2 window.
-int64_t WindowSsd(const FeatureSet& ref, int ru, int rv, const FeatureSet& tgt, int tu, int tv,
-                  int r) {
-  const int w = ref.width();
+// The window of both Sobel images around a reference pixel, compared by the sum of squared
+// differences (SSD) with windows of other images: RefineOne compares one reference with up to
+// 16 targets in each of three images, so its rows are loaded and widened once.
+class ReferenceWindow {
+ public:
+  ReferenceWindow(const FeatureSet& ref, int ru, int rv, int r)
+      : ref_(ref), ru_(ru), rv_(rv), r_(r) {
 #ifdef __SSE2__
-  if (r <= 3) {
-    // 8 bytes per row (the window plus padding masked out), widened to 16 bits; pmaddwd squares
-    // and pairs them.
-    const __m128i zero = _mm_setzero_si128();
-    const __m128i mask = _mm_cmplt_epi16(_mm_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7),
-                                         _mm_set1_epi16(static_cast<int16_t>(2 * r + 1)));
-    __m128i acc = _mm_setzero_si128();
-    const std::vector<uint8_t>* ref_images[2] = {&ref.sobel_u(), &ref.sobel_v()};
-    const std::vector<uint8_t>* tgt_images[2] = {&tgt.sobel_u(), &tgt.sobel_v()};
-    for (int c = 0; c < 2; ++c) {
-      for (int dy = -r; dy <= r; ++dy) {
-        const uint8_t* a = ref_images[c]->data() + (rv + dy) * w + ru - r;
-        const uint8_t* b = tgt_images[c]->data() + (tv + dy) * w + tu - r;
-        const __m128i va =
-            _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(a)), zero);
-        const __m128i vb =
-            _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(b)), zero);
-        const __m128i d = _mm_and_si128(_mm_sub_epi16(va, vb), mask);
-        acc = _mm_add_epi32(acc, _mm_madd_epi16(d, d));
+    if (r <= 3) {
+      // 8 bytes per row (the window plus padding, masked out in Ssd), widened to 16 bits.
+      const __m128i zero = _mm_setzero_si128();
+      const int w = ref.width();
+      const std::vector<uint8_t>* images[2] = {&ref.sobel_u(), &ref.sobel_v()};
+      for (int c = 0; c < 2; ++c) {
+        for (int dy = -r; dy <= r; ++dy) {
+          const uint8_t* a = images[c]->data() + (rv + dy) * w + ru - r;
+          rows_[c][dy + r] =
+              _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(a)), zero);
+        }
       }
+      mask_ = _mm_cmplt_epi16(_mm_setr_epi16(0, 1, 2, 3, 4, 5, 6, 7),
+                              _mm_set1_epi16(static_cast<int16_t>(2 * r + 1)));
     }
-    acc = _mm_add_epi32(acc, _mm_srli_si128(acc, 8));
-    acc = _mm_add_epi32(acc, _mm_srli_si128(acc, 4));
-    return _mm_cvtsi128_si32(acc);
-  }
 #endif
-  int64_t sum = 0;
-  for (int dy = -r; dy <= r; ++dy) {
-    const uint8_t* au = ref.sobel_u().data() + (rv + dy) * w + ru;
-    const uint8_t* av = ref.sobel_v().data() + (rv + dy) * w + ru;
-    const uint8_t* bu = tgt.sobel_u().data() + (tv + dy) * w + tu;
-    const uint8_t* bv = tgt.sobel_v().data() + (tv + dy) * w + tu;
-    int row = 0;
-    for (int dx = -r; dx <= r; ++dx) {
-      const int eu = int(au[dx]) - int(bu[dx]);
-      const int ev = int(av[dx]) - int(bv[dx]);
-      row += eu * eu + ev * ev;
-    }
-    sum += row;
   }
-  return sum;
-}
+
+  // SSD between this window and the one around (tu, tv) in `tgt` (same size as the reference).
+  int64_t Ssd(const FeatureSet& tgt, int tu, int tv) const {
+    const int w = ref_.width(), r = r_;
+#ifdef __SSE2__
+    if (r <= 3) {
+      // pmaddwd squares and pairs the masked 16-bit differences.
+      const __m128i zero = _mm_setzero_si128();
+      __m128i acc = _mm_setzero_si128();
+      const std::vector<uint8_t>* images[2] = {&tgt.sobel_u(), &tgt.sobel_v()};
+      for (int c = 0; c < 2; ++c) {
+        for (int dy = -r; dy <= r; ++dy) {
+          const uint8_t* b = images[c]->data() + (tv + dy) * w + tu - r;
+          const __m128i vb =
+              _mm_unpacklo_epi8(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(b)), zero);
+          const __m128i d = _mm_and_si128(_mm_sub_epi16(rows_[c][dy + r], vb), mask_);
+          acc = _mm_add_epi32(acc, _mm_madd_epi16(d, d));
+        }
+      }
+      acc = _mm_add_epi32(acc, _mm_srli_si128(acc, 8));
+      acc = _mm_add_epi32(acc, _mm_srli_si128(acc, 4));
+      return _mm_cvtsi128_si32(acc);
+    }
+#endif
+    int64_t sum = 0;
+    for (int dy = -r; dy <= r; ++dy) {
+      const uint8_t* au = ref_.sobel_u().data() + (rv_ + dy) * w + ru_;
+      const uint8_t* av = ref_.sobel_v().data() + (rv_ + dy) * w + ru_;
+      const uint8_t* bu = tgt.sobel_u().data() + (tv + dy) * w + tu;
+      const uint8_t* bv = tgt.sobel_v().data() + (tv + dy) * w + tu;
+      int row = 0;
+      for (int dx = -r; dx <= r; ++dx) {
+        const int eu = int(au[dx]) - int(bu[dx]);
+        const int ev = int(av[dx]) - int(bv[dx]);
+        row += eu * eu + ev * ev;
+      }
+      sum += row;
+    }
+    return sum;
+  }
+
+  int radius() const { return r_; }
+
+ private:
+  const FeatureSet& ref_;
+  int ru_, rv_, r_;
+#ifdef __SSE2__
+  __m128i rows_[2][7];
+  __m128i mask_;
+#endif
+};
 
 // Vertex offset of the parabola through (-1, a), (0, b), (1, c), clamped to [-0.5, 0.5].
 double ParabolaVertex(double a, double b, double c) {
@@ -109,8 +138,9 @@ double ParabolaVertex(double a, double b, double c) {
   return std::clamp(0.5 * (a - c) / denom, -0.5, 0.5);
 }
 
-void RefineOne(const FeatureSet& ref, int ru, int rv, const FeatureSet& tgt, int r, bool subpixel,
-               float* u, float* v) {
+void RefineOne(const ReferenceWindow& ref, const FeatureSet& tgt, bool subpixel, float* u,
+               float* v) {
+  const int r = ref.radius();
   const int u0 = static_cast<int>(std::lround(*u)), v0 = static_cast<int>(std::lround(*v));
   int cu = u0, cv = v0;
   const int lo = r + 2, hi_u = tgt.width() - r - 3, hi_v = tgt.height() - r - 3;
@@ -120,7 +150,7 @@ void RefineOne(const FeatureSet& ref, int ru, int rv, const FeatureSet& tgt, int
   for (auto& row : memo) std::fill(std::begin(row), std::end(row), int64_t{-1});
   auto cost_at = [&](int tu, int tv) {
     int64_t& c = memo[tv - v0 + 3][tu - u0 + 3];
-    if (c < 0) c = WindowSsd(ref, ru, rv, tgt, tu, tv, r);
+    if (c < 0) c = ref.Ssd(tgt, tu, tv);
     return c;
   };
   int64_t cost[3][3];
@@ -227,9 +257,16 @@ void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
   const int bcols = std::max(1, (prev_left.width() + bw - 1) / bw);
   const int brows = std::max(1, (prev_left.height() + bh - 1) / bh);
   std::vector<int32_t> bucket_start(static_cast<size_t>(bcols) * brows + 1, 0);
-  auto bucket_of = [&](int u, int v) {
-    return std::min(v / bh, brows - 1) * bcols + std::min(u / bw, bcols - 1);
-  };
+  // The bucket of a pixel from two tables (no divisions per feature).
+  std::vector<int32_t> bucket_col(std::max(prev_left.width(), 0));
+  std::vector<int32_t> bucket_row(std::max(prev_left.height(), 0));
+  for (size_t u = 0; u < bucket_col.size(); ++u) {
+    bucket_col[u] = std::min(static_cast<int>(u) / bw, bcols - 1);
+  }
+  for (size_t v = 0; v < bucket_row.size(); ++v) {
+    bucket_row[v] = std::min(static_cast<int>(v) / bh, brows - 1) * bcols;
+  }
+  auto bucket_of = [&](int u, int v) { return bucket_row[v] + bucket_col[u]; };
   for (int k = 0; k < kNumFeatureClasses; ++k) {
     const FeatureSet::Class& pl = prev_left.features(k);
     for (int i = 0; i < pl.size(); ++i) ++bucket_start[bucket_of(pl.u[i], pl.v[i]) + 1];
@@ -251,11 +288,14 @@ void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
     for (size_t b = 0; b + 1 < bucket_start.size(); ++b) {
       auto first = starts.begin() + bucket_start[b], last = starts.begin() + bucket_start[b + 1];
       if (last - first > p) {
-        std::partial_sort(first, first + p, last, [](const Start& a, const Start& c) {
+        // The p first in a total order (class and index are unique): selected, then sorted.
+        auto stronger = [](const Start& a, const Start& c) {
           if (a.strength != c.strength) return a.strength > c.strength;
           if (a.feature_class != c.feature_class) return a.feature_class < c.feature_class;
           return a.index < c.index;
-        });
+        };
+        std::nth_element(first, first + p, last, stronger);
+        std::sort(first, first + p, stronger);
         last = first + p;
       }
       for (auto it = first; it != last; ++it) starts[out++] = *it;
@@ -326,25 +366,34 @@ void BucketMatches(const MatcherOptions& options, int image_width, int image_hei
     const int r = std::clamp(static_cast<int>(q.v_cur_left) / bh, 0, rows - 1);
     return r * cols + c;
   };
-  std::sort(matches->begin(), matches->end(), [&](const QuadMatch& a, const QuadMatch& b) {
-    const int ba = bucket(a), bb = bucket(b);
-    if (ba != bb) return ba < bb;
+  // Sorted by bucket, then cost, then start position and class (a total order: one match per
+  // start), through an index so that each match's bucket is computed once.
+  std::vector<int32_t> buckets(matches->size()), order(matches->size());
+  for (size_t i = 0; i < matches->size(); ++i) {
+    buckets[i] = bucket((*matches)[i]);
+    order[i] = static_cast<int32_t>(i);
+  }
+  const std::vector<QuadMatch>& m = *matches;
+  std::sort(order.begin(), order.end(), [&](int32_t ia, int32_t ib) {
+    if (buckets[ia] != buckets[ib]) return buckets[ia] < buckets[ib];
+    const QuadMatch& a = m[ia];
+    const QuadMatch& b = m[ib];
     if (a.cost != b.cost) return a.cost < b.cost;
     if (a.v_prev_left != b.v_prev_left) return a.v_prev_left < b.v_prev_left;
     if (a.u_prev_left != b.u_prev_left) return a.u_prev_left < b.u_prev_left;
     return a.feature_class < b.feature_class;
   });
-  size_t out = 0;
+  std::vector<QuadMatch> kept;
+  kept.reserve(matches->size());
   int current = -1, count = 0;
-  for (size_t i = 0; i < matches->size(); ++i) {
-    const int b = bucket((*matches)[i]);
-    if (b != current) {
-      current = b;
+  for (const int32_t i : order) {
+    if (buckets[i] != current) {
+      current = buckets[i];
       count = 0;
     }
-    if (count++ < options.bucket_max_matches) (*matches)[out++] = (*matches)[i];
+    if (count++ < options.bucket_max_matches) kept.push_back(m[i]);
   }
-  matches->resize(out);
+  matches->swap(kept);
 }
 
 void RefineMatchesSubpixel(const FeatureSet& prev_left, const FeatureSet& prev_right,
@@ -353,9 +402,10 @@ void RefineMatchesSubpixel(const FeatureSet& prev_left, const FeatureSet& prev_r
   const int r = options.refine_half_window_px;
   for (QuadMatch& q : *matches) {
     const int ru = static_cast<int>(q.u_prev_left), rv = static_cast<int>(q.v_prev_left);
-    RefineOne(prev_left, ru, rv, prev_right, r, true, &q.u_prev_right, &q.v_prev_right);
-    RefineOne(prev_left, ru, rv, cur_left, r, true, &q.u_cur_left, &q.v_cur_left);
-    RefineOne(prev_left, ru, rv, cur_right, r, true, &q.u_cur_right, &q.v_cur_right);
+    const ReferenceWindow ref(prev_left, ru, rv, r);
+    RefineOne(ref, prev_right, true, &q.u_prev_right, &q.v_prev_right);
+    RefineOne(ref, cur_left, true, &q.u_cur_left, &q.v_cur_left);
+    RefineOne(ref, cur_right, true, &q.u_cur_right, &q.v_cur_right);
   }
 }
 
@@ -365,9 +415,10 @@ void RefineMatchesPixel(const FeatureSet& prev_left, const FeatureSet& prev_righ
   const int r = options.refine_half_window_px;
   for (QuadMatch& q : *matches) {
     const int ru = static_cast<int>(q.u_prev_left), rv = static_cast<int>(q.v_prev_left);
-    RefineOne(prev_left, ru, rv, prev_right, r, false, &q.u_prev_right, &q.v_prev_right);
-    RefineOne(prev_left, ru, rv, cur_left, r, false, &q.u_cur_left, &q.v_cur_left);
-    RefineOne(prev_left, ru, rv, cur_right, r, false, &q.u_cur_right, &q.v_cur_right);
+    const ReferenceWindow ref(prev_left, ru, rv, r);
+    RefineOne(ref, prev_right, false, &q.u_prev_right, &q.v_prev_right);
+    RefineOne(ref, cur_left, false, &q.u_cur_left, &q.v_cur_left);
+    RefineOne(ref, cur_right, false, &q.u_cur_right, &q.v_cur_right);
   }
 }
 

@@ -1,5 +1,6 @@
 #include "mav/localization/features.h"
 
+#include <algorithm>
 #include <cstdlib>
 #include <random>
 
@@ -29,19 +30,49 @@ std::vector<uint8_t> RandomImage(int w, int h, uint64_t seed) {
 TEST(FeaturesTest, FilterResponsesEqualDirectConvolution) {
   const int w = 61, h = 37;
   const std::vector<uint8_t> img = RandomImage(w, h, 1);
-  std::vector<int16_t> blob, corner, scratch;
-  ComputeFilterResponses({img.data(), w, h, w}, &blob, &corner, &scratch);
-  for (int y = 2; y < h - 2; ++y)
-    for (int x = 2; x < w - 2; ++x) {
-      int b = 0, c = 0;
-      for (int j = -2; j <= 2; ++j)
-        for (int i = -2; i <= 2; ++i) {
-          b += kBlob[j + 2][i + 2] * img[(y + j) * w + x + i];
-          c += kCorner[j + 2][i + 2] * img[(y + j) * w + x + i];
+  for (const bool avx2 : {false, true}) {
+    std::vector<int16_t> blob, corner, scratch;
+    ComputeFilterResponses({img.data(), w, h, w}, &blob, &corner, &scratch, avx2);
+    for (int y = 2; y < h - 2; ++y)
+      for (int x = 2; x < w - 2; ++x) {
+        int b = 0, c = 0;
+        for (int j = -2; j <= 2; ++j)
+          for (int i = -2; i <= 2; ++i) {
+            b += kBlob[j + 2][i + 2] * img[(y + j) * w + x + i];
+            c += kCorner[j + 2][i + 2] * img[(y + j) * w + x + i];
+          }
+        ASSERT_EQ(blob[y * w + x], b) << "blob at " << x << "," << y;
+        ASSERT_EQ(corner[y * w + x], c) << "corner at " << x << "," << y;
+      }
+  }
+}
+
+// The Sobel images (the descriptors' source, computed 16 pixels at a time) equal the 3x3 Sobel
+// masks applied directly and mapped to bytes as Descriptor says, with a 128 border.
+TEST(FeaturesTest, SobelImagesEqualDirectConvolution) {
+  for (const int w : {61, 83}) {
+    const int h = 37;
+    const std::vector<uint8_t> img = RandomImage(w, h, w);
+    FeatureExtractor extractor(FeatureOptions{});
+    FeatureSet fs;
+    extractor.Extract({img.data(), w, h, w}, &fs);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        int eu = 128, ev = 128;
+        if (x > 0 && y > 0 && x < w - 1 && y < h - 1) {
+          auto p = [&](int dx, int dy) { return int(img[(y + dy) * w + x + dx]); };
+          const int gu = (p(1, -1) + 2 * p(1, 0) + p(1, 1)) - (p(-1, -1) + 2 * p(-1, 0) + p(-1, 1));
+          const int gv = (p(-1, 1) + 2 * p(0, 1) + p(1, 1)) - (p(-1, -1) + 2 * p(0, -1) + p(1, -1));
+          eu = std::clamp((gu >> 2) + 128, 0, 255);
+          ev = std::clamp((gv >> 2) + 128, 0, 255);
         }
-      ASSERT_EQ(blob[y * w + x], b) << "blob at " << x << "," << y;
-      ASSERT_EQ(corner[y * w + x], c) << "corner at " << x << "," << y;
+        ASSERT_EQ(fs.sobel_u()[y * w + x], eu)
+            << "u at " << x << "," << y << " (width " << w << ")";
+        ASSERT_EQ(fs.sobel_v()[y * w + x], ev)
+            << "v at " << x << "," << y << " (width " << w << ")";
+      }
     }
+  }
 }
 
 TEST(FeaturesTest, SadMatchesScalarDefinition) {
@@ -144,6 +175,88 @@ TEST(FeaturesTest, NonMaximumSuppressionYieldsStrictExtremaPerClass) {
       EXPECT_GE(hs.features(k).u[i], FeatureSet::kDescriptorMargin);
       EXPECT_LT(hs.features(k).u[i], rig.width - FeatureSet::kDescriptorMargin);
     }
+  }
+}
+
+// The window scans (eight features at a time with SIMD compares) visit exactly the features a
+// scan of every feature finds: ForEachInWindow in increasing index, ForEachInRows in raster
+// order; windows of every size, clipped at every border, empty and inverted.
+TEST(FeaturesTest, WindowScansVisitExactlyTheWindowsFeatures) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  synthetic::SyntheticRoom room;
+  std::vector<uint8_t> left, right;
+  room.Render(rig, geometry::SE3(), &left, &right);
+  FeatureExtractor extractor(FeatureOptions{});
+  FeatureSet fs;
+  extractor.Extract({left.data(), rig.width, rig.height, rig.width}, &fs);
+  std::mt19937_64 rng(7);
+  auto coord = [&](int extent) {
+    return static_cast<int>(rng() % (extent + 80)) - 40;  // reaches past both borders
+  };
+  int visited = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const FeatureSet::Class& c = fs.features(trial % kNumFeatureClasses);
+    const int u0 = coord(rig.width), v0 = coord(rig.height);
+    const int u1 = u0 + static_cast<int>(rng() % 120) - 4;  // a few inverted (empty) windows
+    const int v1 = v0 + static_cast<int>(rng() % (trial % 2 == 0 ? 4 : 60)) - 1;
+    std::vector<int> expected;  // by index
+    for (int i = 0; i < c.size(); ++i) {
+      if (c.u[i] >= u0 && c.u[i] <= u1 && c.v[i] >= v0 && c.v[i] <= v1) expected.push_back(i);
+    }
+    std::vector<int> in_window;
+    fs.ForEachInWindow(c, u0, u1, v0, v1, [&](int i) { in_window.push_back(i); });
+    ASSERT_EQ(in_window, expected)
+        << "window [" << u0 << ", " << u1 << "] x [" << v0 << ", " << v1 << "]";
+    std::sort(expected.begin(), expected.end(),
+              [&](int a, int b) { return c.v[a] != c.v[b] ? c.v[a] < c.v[b] : c.u[a] < c.u[b]; });
+    std::vector<int> in_rows;
+    fs.ForEachInRows(c, u0, u1, v0, v1, [&](int i) { in_rows.push_back(i); });
+    ASSERT_EQ(in_rows, expected) << "rows [" << u0 << ", " << u1 << "] x [" << v0 << ", " << v1
+                                 << "]";
+    visited += static_cast<int>(expected.size());
+  }
+  EXPECT_GT(visited, 10000);  // the windows were not all empty
+}
+
+// The AVX2 kernels (chosen at run time) find the same features as the SSE2 ones, on the
+// rendered room and on noise (plateaus, every radius), at full and half resolution.
+TEST(FeaturesTest, Avx2AndSse2KernelsFindTheSameFeatures) {
+  const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
+  synthetic::SyntheticRoom room;
+  std::vector<uint8_t> left, right;
+  room.Render(rig, geometry::SE3(), &left, &right);
+  const int nw = 203, nh = 77;
+  std::vector<uint8_t> noise = RandomImage(nw, nh, 11);
+  for (size_t i = 0; i < noise.size(); ++i) noise[i] = static_cast<uint8_t>(noise[i] & 0xe0);
+  struct Case {
+    const std::vector<uint8_t>* image;
+    int w, h;
+  };
+  for (const Case& image : {Case{&left, rig.width, rig.height}, Case{&noise, nw, nh}}) {
+    for (int n = 1; n <= 8; ++n) {
+      for (const bool half : {false, true}) {
+        FeatureOptions options;
+        options.nms_radius = n;
+        options.half_resolution = half;
+        options.response_threshold = image.image == &noise ? 0 : 50;
+        FeatureExtractor best(options);
+        options.use_avx2 = false;
+        FeatureExtractor sse2(options);
+        ASSERT_FALSE(sse2.UsesAvx2());
+        FeatureSet a, b;
+        best.Extract({image.image->data(), image.w, image.h, image.w}, &a);
+        sse2.Extract({image.image->data(), image.w, image.h, image.w}, &b);
+        for (int k = 0; k < kNumFeatureClasses; ++k) {
+          ASSERT_EQ(a.features(k).u, b.features(k).u) << "n " << n << " class " << k;
+          ASSERT_EQ(a.features(k).v, b.features(k).v) << "n " << n << " class " << k;
+          ASSERT_EQ(a.features(k).strength, b.features(k).strength) << "n " << n;
+        }
+        EXPECT_GT(a.TotalFeatures(), 0);
+      }
+    }
+  }
+  if (!FeatureExtractor(FeatureOptions{}).UsesAvx2()) {
+    GTEST_SKIP() << "this CPU has no AVX2: only the SSE2 kernels ran";
   }
 }
 

@@ -54,6 +54,8 @@ args=(--mission "$mission" --seed "$seed" --pose-source vo --map "$map" --quiet 
 start=$(date +%s.%N)
 "$bin/mavctl" mission run "${args[@]}" > "$out/mission.txt" 2>&1 || echo "(the mission failed: $out/mission.txt)"
 wall=$(awk -v a="$(date +%s.%N)" -v b="$start" 'BEGIN { printf "%.1f", a - b }')
+# The mapping service's own timings (per keyframe, per rebuild), before it is stopped.
+[[ "$map" == online ]] && "$bin/mavctl" map status --port "${port[mav-mapping]}" > "$out/map-status.txt" 2>&1
 sim_s=$(python3 -c "import json,sys; print(json.load(open('$out/report.json'))['sim_time_s'])" 2> /dev/null ||
         sed -n 's/.*in \([0-9.]*\) s simulated.*/\1/p' "$out/mission.txt" | head -1)
 echo "mission $(basename "$mission"), map $map, seed $seed: ${sim_s} s simulated in ${wall} s wall ($(nproc) cores)"

@@ -165,6 +165,7 @@ int Run(const std::vector<std::string>& args) {
   r.lockstep_frames_missed = services->lockstep_frames_missed;
   r.keyframes = services->keyframes;
   r.map_rebuilds = services->map_rebuilds;
+  r.roadmap_builds = services->roadmap_builds;
   r.map_errors = services->map_errors;
   r.map_build_ms = services->map_build_ms;
   r.map_quality = services->map_quality;

@@ -116,6 +116,8 @@ struct ServiceDriver::Impl {
   int64_t keyframes_at_build = 0;
   int64_t next_build_ns = 0;
   uint64_t map_version = 0;
+  bool roadmap_built = false;  // for the map mav-planning has now
+  uint64_t roadmap_milestones = 0;
   RuntimeWindow map_build_ms{10000};
   geometry::SE3 T_vehicle_rig;
   std::string map_bt;
@@ -169,8 +171,10 @@ struct ServiceDriver::Impl {
   Status Download(grpc::ClientReader<v1::OccupancyChunk>* reader, const std::string& what,
                   std::string* bytes);
   Status SetUpPlanning(const std::function<void(const std::string&)>& progress);
-  // `bt` becomes the planner's map (uploaded, its roadmap built) and the driver's copy.
-  Status LoadPlanningMap(std::string bt, const std::string& what);
+  // `bt` becomes the planner's map (uploaded) and the driver's copy; its roadmap is built now
+  // (`roadmap_now`: the first map) or by the next plan (EnsureRoadmap), as in process.
+  Status LoadPlanningMap(std::string bt, const std::string& what, bool roadmap_now);
+  Status EnsureRoadmap();
   Status StartMapping();
   // The online map from the keyframes so far (BuildMap, GetOccupancy, the ground prior, upload).
   Status RebuildOnlineMap();
@@ -234,7 +238,9 @@ Status ServiceDriver::Impl::SetUpPlanning(const std::function<void(const std::st
       Download(reader.get(),
                "mav-simulator at " + addresses.simulator + ": GetGroundTruthOccupancy", &bytes));
   if (progress) progress("uploading the map to mav-planning and building its roadmap");
-  if (!options.online_map) return LoadPlanningMap(std::move(bytes), "ground-truth occupancy");
+  if (!options.online_map) {
+    return LoadPlanningMap(std::move(bytes), "ground-truth occupancy", true);
+  }
   // The online map starts as the ground below the take-off (the one thing known before the
   // flight) and everything else unknown.
   MAV_ASSIGN_OR_RETURN(truth_grid, dataset::DecodeMavocc(bytes, "ground-truth occupancy"));
@@ -242,10 +248,11 @@ Status ServiceDriver::Impl::SetUpPlanning(const std::function<void(const std::st
   mission::AddGroundPrior(mission.start.z(), &prior);
   MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(prior));
   planning_grid = std::move(prior);
-  return LoadPlanningMap(std::move(bt), "online map (no keyframe yet)");
+  return LoadPlanningMap(std::move(bt), "online map (no keyframe yet)", true);
 }
 
-Status ServiceDriver::Impl::LoadPlanningMap(std::string bt, const std::string& what) {
+Status ServiceDriver::Impl::LoadPlanningMap(std::string bt, const std::string& what,
+                                            bool roadmap_now) {
   const std::string name = mission.world + " " + what;
   MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(bt, name, plan_options.map));
   map_bt = std::move(bt);
@@ -278,6 +285,19 @@ Status ServiceDriver::Impl::LoadPlanningMap(std::string bt, const std::string& w
         return writer->Finish();
       },
       options.setup_timeout_s));
+  roadmap_built = false;
+  if (roadmap_now) MAV_RETURN_IF_ERROR(EnsureRoadmap());
+  std::ostringstream description;
+  description << what << " of " << mission.world << " at " << plan_options.map_resolution_m
+              << " m, robot radius " << mo.robot_radius_m << " m, " << (roadmap_now ? "" : "up to ")
+              << (roadmap_now ? roadmap_milestones : plan_options.roadmap.max_milestones)
+              << " roadmap milestones (mav-planning)";
+  figures.map_description = description.str();
+  return Status::Ok();
+}
+
+Status ServiceDriver::Impl::EnsureRoadmap() {
+  if (roadmap_built) return Status::Ok();
   const planning::RoadmapOptions& ro = plan_options.roadmap;
   v1::BuildRoadmapRequest roadmap;
   roadmap.set_time_budget_s(ro.time_budget_s);
@@ -290,11 +310,9 @@ Status ServiceDriver::Impl::LoadPlanningMap(std::string bt, const std::string& w
       "mav-planning", addresses.planning, "BuildRoadmap",
       [&](grpc::ClientContext* c) { return planning->BuildRoadmap(c, roadmap, &roadmap_info); },
       options.setup_timeout_s));
-  std::ostringstream description;
-  description << what << " of " << mission.world << " at " << plan_options.map_resolution_m
-              << " m, robot radius " << mo.robot_radius_m << " m, " << roadmap_info.milestones()
-              << " roadmap milestones (mav-planning)";
-  figures.map_description = description.str();
+  roadmap_built = true;
+  roadmap_milestones = roadmap_info.milestones();
+  ++figures.roadmap_builds;
   return Status::Ok();
 }
 
@@ -357,7 +375,7 @@ Status ServiceDriver::Impl::RebuildOnlineMap() {
   mission::AddGroundPrior(mission.start.z(), &grid);
   MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(grid));
   MAV_RETURN_IF_ERROR(LoadPlanningMap(
-      std::move(bt), "online map (" + std::to_string(built.keyframes()) + " keyframes)"));
+      std::move(bt), "online map (" + std::to_string(built.keyframes()) + " keyframes)", false));
   planning_grid = std::move(grid);
   keyframes_at_build = built.keyframes();
   ++map_version;
@@ -703,9 +721,12 @@ Result<mission::LegPlan> ServiceDriver::Plan(const Eigen::Vector3d& start,
   request.set_seed(s.options.vehicle.seed);
   request.set_start_yaw_rad(yaw_rad);
   v1::PlanPathResponse response;
-  const Status called =
-      s.Unary("mav-planning", s.addresses.planning, "PlanPath",
-              [&](grpc::ClientContext* c) { return s.planning->PlanPath(c, request, &response); });
+  Status called = s.EnsureRoadmap();
+  if (called.ok()) {
+    called = s.Unary("mav-planning", s.addresses.planning, "PlanPath", [&](grpc::ClientContext* c) {
+      return s.planning->PlanPath(c, request, &response);
+    });
+  }
   s.plan_ms.Add(MsSince(plan_start));
   ++s.figures.plans;
   if (!called.ok()) {

@@ -92,11 +92,13 @@ struct ServiceFigures {
   mission::MissionFigures::PoseLatency pose_latency;  // control: vision poses, capture -> in
   uint64_t plans = 0, plans_failed = 0;
   // The online map: keyframes mapped, rebuilds (each a new planner map), their wall time
-  // (BuildMap + download + upload + roadmap), and the final map against the world's occupancy
+  // (BuildMap + download + upload; the new map's roadmap is built by the next plan and counted
+  // in plan_ms), the roadmaps built, and the final map against the world's occupancy
   // over the volume the camera could observe from its true poses along the flight (the
   // in-process driver takes its keyframes' poses: the services do not report them).
   int64_t keyframes = 0;
   uint64_t map_rebuilds = 0, map_errors = 0;
+  uint64_t roadmap_builds = 0;  // mav-planning's BuildRoadmap calls
   RuntimeStats map_build_ms;
   std::optional<mission::MapQuality> map_quality;
   RuntimeStats plan_ms;     // the PlanPath round trip

@@ -26,6 +26,7 @@ void AddDriverFigures(const mission::LockstepDriver& driver, mission::MissionFig
   r->map_description = stats.map_description;
   r->keyframes = stats.keyframes;
   r->map_rebuilds = stats.map_rebuilds;
+  r->roadmap_builds = stats.roadmap_builds;
   r->map_errors = stats.map_errors;
   r->map_build_ms = stats.map_build_ms;
   r->plan_ms = stats.plan_ms;

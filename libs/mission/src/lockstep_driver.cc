@@ -105,7 +105,9 @@ struct LockstepDriver::Impl {
   int64_t keyframes_at_build = 0;
   int64_t next_build_ns = 0;
   uint64_t map_version = 0;
+  // The roadmap of `map`, or null until the next plan needs it (the map was replaced since).
   std::shared_ptr<const planning::Roadmap> roadmap;
+  uint64_t roadmap_builds = 0;
   MissionPlanning planning;
 
   const sim::FlightStep* out = nullptr;
@@ -124,9 +126,12 @@ struct LockstepDriver::Impl {
   // The planning map (the world's exact occupancy, or the online map's prior), its roadmap and
   // the speed limits.
   Status BuildPlanning(const ProgressCallback& progress);
-  // Replaces the planning map and its roadmap by `grid`'s.
+  // Replaces the planning map by `grid`'s; its roadmap is built now (`roadmap_now`: the first
+  // map) or by the next plan (EnsureRoadmap): an online map is rebuilt every few seconds, and a
+  // roadmap (~1 s for 20 000 milestones) for each version would mostly go unused.
   Status LoadPlanningMap(const dataset::OccupancyGrid& grid, const std::string& what,
-                         const ProgressCallback& progress);
+                         const ProgressCallback& progress, bool roadmap_now);
+  Status EnsureRoadmap(const ProgressCallback& progress);
   // The online map from the keyframes so far (the sparse mesh of libs/mapping).
   Status RebuildOnlineMap();
   // Offers a tracked frame (the VO's rig pose; the true one for the map's evaluation) to the
@@ -152,28 +157,38 @@ Status LockstepDriver::Impl::BuildPlanning(const ProgressCallback& progress) {
   if (progress) progress("ground-truth map", 0.0);
   truth_grid = sim::ComputeOccupancy(*world, planning.map_resolution_m);
   if (options.map_source == MapSource::kGroundTruth) {
-    return LoadPlanningMap(truth_grid, "ground-truth occupancy", progress);
+    return LoadPlanningMap(truth_grid, "ground-truth occupancy", progress, true);
   }
   // The online map starts as the ground below the take-off (the one thing known before the
   // flight) and everything else unknown.
   dataset::OccupancyGrid prior(truth_grid.geometry());
   AddGroundPrior(mission.start.z(), &prior);
-  return LoadPlanningMap(prior, "online map (no keyframe yet)", progress);
+  return LoadPlanningMap(prior, "online map (no keyframe yet)", progress, true);
 }
 
 Status LockstepDriver::Impl::LoadPlanningMap(const dataset::OccupancyGrid& grid,
                                              const std::string& what,
-                                             const ProgressCallback& progress) {
+                                             const ProgressCallback& progress, bool roadmap_now) {
   MAV_ASSIGN_OR_RETURN(std::string bt, dataset::EncodeOctomapBt(grid));
   MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(bt, mission.world + " " + what,
                                                              planning.map, {}, progress));
-  MAV_ASSIGN_OR_RETURN(roadmap, planning::Roadmap::Build(*map, planning.roadmap, {}, progress));
+  roadmap.reset();
+  if (roadmap_now) MAV_RETURN_IF_ERROR(EnsureRoadmap(progress));
   planning_grid = grid;
   std::ostringstream description;
   description << what << " of " << mission.world << " at " << grid.resolution()
               << " m, robot radius " << planning.map.robot_radius_m << " m, "
-              << roadmap->info().milestones << " roadmap milestones";
+              << (roadmap != nullptr ? "" : "up to ")
+              << (roadmap != nullptr ? roadmap->info().milestones : planning.roadmap.max_milestones)
+              << " roadmap milestones";
   stats.map_description = description.str();
+  return Status::Ok();
+}
+
+Status LockstepDriver::Impl::EnsureRoadmap(const ProgressCallback& progress) {
+  if (roadmap != nullptr) return Status::Ok();
+  MAV_ASSIGN_OR_RETURN(roadmap, planning::Roadmap::Build(*map, planning.roadmap, {}, progress));
+  ++roadmap_builds;
   return Status::Ok();
 }
 
@@ -189,7 +204,7 @@ Status LockstepDriver::Impl::RebuildOnlineMap() {
                                                                truth_grid.geometry(), build));
   AddGroundPrior(mission.start.z(), &built.grid);
   MAV_RETURN_IF_ERROR(LoadPlanningMap(
-      built.grid, "online map (" + std::to_string(built.keyframes) + " keyframes)", {}));
+      built.grid, "online map (" + std::to_string(built.keyframes) + " keyframes)", {}, false));
   keyframes_at_build = built.keyframes;
   ++map_version;
   map_build_ms.Add(MsSince(start));
@@ -436,6 +451,12 @@ Result<LegPlan> LockstepDriver::Plan(const Eigen::Vector3d& start, const Eigen::
   request.limits = s.planning.limits;
   request.start_yaw_rad = yaw_rad;
   request.seed = s.options.vehicle.seed;
+  if (const Status built = s.EnsureRoadmap({}); !built.ok()) {
+    s.plan_ms.Add(MsSince(plan_start));
+    ++s.stats.plans;
+    ++s.stats.plans_failed;
+    return built;
+  }
   Result<planning::PlanResult> result = planning::PlanPath(*s.map, s.roadmap.get(), request);
   s.plan_ms.Add(MsSince(plan_start));
   ++s.stats.plans;
@@ -485,6 +506,7 @@ LockstepStats LockstepDriver::stats() const {
   st.map_build_ms = impl_->map_build_ms.Summary();
   st.keyframes = impl_->mapper ? impl_->mapper->num_keyframes() : 0;
   st.map_rebuilds = impl_->map_version;
+  st.roadmap_builds = impl_->roadmap_builds;
   st.poses_rejected = impl_->ap->estimator().counters().poses_rejected;
   st.collisions = impl_->sim->collision_count();
   for (const sim::Collision& c : impl_->sim->collisions()) {

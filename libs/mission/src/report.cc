@@ -108,10 +108,12 @@ std::string MissionTable(const MissionFigures& r) {
   t += Format("  planning           %d plans, %d replans (%.0f ms mean) on the %s\n", report.plans,
               report.replans, r.plan_ms.mean_ms, r.map_description.c_str());
   if (r.map_rebuilds > 0) {
-    t +=
-        Format("  online map         %lld keyframes, %llu rebuilds (%.0f ms mean), %llu errors\n",
-               static_cast<long long>(r.keyframes), static_cast<unsigned long long>(r.map_rebuilds),
-               r.map_build_ms.mean_ms, static_cast<unsigned long long>(r.map_errors));
+    t += Format(
+        "  online map         %lld keyframes, %llu rebuilds (%.0f ms mean), %llu errors; "
+        "%llu roadmaps\n",
+        static_cast<long long>(r.keyframes), static_cast<unsigned long long>(r.map_rebuilds),
+        r.map_build_ms.mean_ms, static_cast<unsigned long long>(r.map_errors),
+        static_cast<unsigned long long>(r.roadmap_builds));
   }
   if (r.map_quality) {
     t += Format("  final map          MCC %.3f, missed collisions %.2f %%, false %.2f %% (%s)\n",
@@ -176,7 +178,7 @@ std::string MissionJson(const MissionFigures& r) {
   j << "},\n  \"mapping\": {\"map\": " << JsonQuote(r.map_description)
     << ", \"keyframes\": " << r.keyframes << ", \"rebuilds\": " << r.map_rebuilds
     << ", \"build_ms_mean\": " << JsonNumber(r.map_build_ms.mean_ms)
-    << ", \"errors\": " << r.map_errors;
+    << ", \"errors\": " << r.map_errors << ", \"roadmaps\": " << r.roadmap_builds;
   if (r.map_quality) {
     j << ", \"mcc\": " << JsonNumber(r.map_quality->mcc)
       << ", \"missed_percent\": " << JsonNumber(r.map_quality->missed_percent)

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -152,6 +153,7 @@ TEST(LockstepMissionTest, OnlineMapIsBuiltFromTheFlightsKeyframes) {
   LockstepOptions options;
   options.vehicle.seed = 3;
   options.map_source = MapSource::kOnline;
+  options.map_rebuild_s = 1.0;  // more map versions than plans: their roadmaps wait for a plan
   Result<std::unique_ptr<LockstepDriver>> driver = LockstepDriver::Create(mission, options);
   ASSERT_TRUE(driver.ok()) << driver.status().ToString();
   MissionOptions mission_options;
@@ -161,8 +163,16 @@ TEST(LockstepMissionTest, OnlineMapIsBuiltFromTheFlightsKeyframes) {
   ASSERT_TRUE(report.ok());
   const LockstepStats stats = (*driver)->stats();
   EXPECT_GE(stats.keyframes, 3);
-  EXPECT_GE(stats.map_rebuilds, 1u);
+  EXPECT_GT(stats.map_rebuilds, stats.plans);
   EXPECT_LT(stats.map_errors, stats.map_rebuilds + stats.keyframes);
+  // A roadmap for the first map, then only when a plan finds a map newer than its roadmap.
+  EXPECT_GE(stats.roadmap_builds, 1u);
+  EXPECT_LE(stats.roadmap_builds, 1 + stats.plans);
+  EXPECT_LE(stats.roadmap_builds, 1 + stats.map_rebuilds);
+  std::printf("online map: %llu rebuilds, %llu plans, %llu roadmaps\n",
+              static_cast<unsigned long long>(stats.map_rebuilds),
+              static_cast<unsigned long long>(stats.plans),
+              static_cast<unsigned long long>(stats.roadmap_builds));
   EXPECT_NE(stats.map_description.find("online map"), std::string::npos) << stats.map_description;
   const Result<MapQuality> quality = (*driver)->EvaluateMap();
   ASSERT_TRUE(quality.ok()) << quality.status().ToString();

@@ -110,9 +110,12 @@ struct LockstepStats {
   RuntimeStats render_ms;     // wall time per stereo pair
   RuntimeStats vo_ms;         // wall time per VO frame
   RuntimeStats plan_ms;       // wall time per Plan()
-  RuntimeStats map_build_ms;  // wall time per online map rebuild (mesh, planning map, roadmap)
+  RuntimeStats map_build_ms;  // wall time per online map rebuild (mesh, planning map)
   int64_t keyframes = 0;      // inserted into the online map
   uint64_t map_rebuilds = 0;
+  // Roadmaps built: one for the first map, then one per plan on a map that changed since the
+  // last (a rebuilt online map's roadmap waits for the next plan; plan_ms includes it).
+  uint64_t roadmap_builds = 0;
   uint64_t map_errors = 0;  // keyframes or rebuilds that failed (the map stays as it was)
   double path_m = 0;        // ground-truth path length flown
   double setup_s = 0;       // map + roadmap (wall)

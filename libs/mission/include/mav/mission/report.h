@@ -48,6 +48,7 @@ struct MissionFigures {
   std::string map_description;
   int64_t keyframes = 0;
   uint64_t map_rebuilds = 0, map_errors = 0;
+  uint64_t roadmap_builds = 0;  // the planner's (the first map's, then per plan on a new map)
   RuntimeStats map_build_ms, plan_ms;
   std::optional<MapQuality> map_quality;
   // Through the services only: frames mav-control flew on without (the localization silent),

@@ -116,7 +116,7 @@ struct ServiceDriver::Impl {
   int64_t keyframes_at_build = 0;
   int64_t next_build_ns = 0;
   uint64_t map_version = 0;
-  bool roadmap_built = false;  // for the map mav-planning has now
+  bool planner_current = false;  // mav-planning has map_bt and its roadmap
   uint64_t roadmap_milestones = 0;
   RuntimeWindow map_build_ms{10000};
   geometry::SE3 T_vehicle_rig;
@@ -171,10 +171,13 @@ struct ServiceDriver::Impl {
   Status Download(grpc::ClientReader<v1::OccupancyChunk>* reader, const std::string& what,
                   std::string* bytes);
   Status SetUpPlanning(const std::function<void(const std::string&)>& progress);
-  // `bt` becomes the planner's map (uploaded) and the driver's copy; its roadmap is built now
-  // (`roadmap_now`: the first map) or by the next plan (EnsureRoadmap), as in process.
-  Status LoadPlanningMap(std::string bt, const std::string& what, bool roadmap_now);
-  Status EnsureRoadmap();
+  // `bt` becomes the driver's map (the mission's re-checks read it) and mav-planning's: uploaded
+  // with its roadmap built now (`planner_now`: the first map) or by the next plan
+  // (EnsurePlannerMap). An online map is rebuilt every few seconds; most versions are only
+  // re-checked, and a planner map (its distance field) and roadmap (~1 s for 20 000 milestones)
+  // for each would mostly go unused.
+  Status LoadPlanningMap(std::string bt, const std::string& what, bool planner_now);
+  Status EnsurePlannerMap();
   Status StartMapping();
   // The online map from the keyframes so far (BuildMap, GetOccupancy, the ground prior, upload).
   Status RebuildOnlineMap();
@@ -252,10 +255,24 @@ Status ServiceDriver::Impl::SetUpPlanning(const std::function<void(const std::st
 }
 
 Status ServiceDriver::Impl::LoadPlanningMap(std::string bt, const std::string& what,
-                                            bool roadmap_now) {
+                                            bool planner_now) {
   const std::string name = mission.world + " " + what;
   MAV_ASSIGN_OR_RETURN(map, planning::PlanningMap::LoadBytes(bt, name, plan_options.map));
   map_bt = std::move(bt);
+  planner_current = false;
+  if (planner_now) MAV_RETURN_IF_ERROR(EnsurePlannerMap());
+  std::ostringstream description;
+  description << what << " of " << mission.world << " at " << plan_options.map_resolution_m
+              << " m, robot radius " << plan_options.map.robot_radius_m << " m, "
+              << (planner_now ? "" : "up to ")
+              << (planner_now ? roadmap_milestones : plan_options.roadmap.max_milestones)
+              << " roadmap milestones (mav-planning)";
+  figures.map_description = description.str();
+  return Status::Ok();
+}
+
+Status ServiceDriver::Impl::EnsurePlannerMap() {
+  if (planner_current) return Status::Ok();
   const planning::MapOptions& mo = plan_options.map;
   v1::MapOptions map_options;
   map_options.set_robot_radius_m(mo.robot_radius_m);
@@ -285,19 +302,6 @@ Status ServiceDriver::Impl::LoadPlanningMap(std::string bt, const std::string& w
         return writer->Finish();
       },
       options.setup_timeout_s));
-  roadmap_built = false;
-  if (roadmap_now) MAV_RETURN_IF_ERROR(EnsureRoadmap());
-  std::ostringstream description;
-  description << what << " of " << mission.world << " at " << plan_options.map_resolution_m
-              << " m, robot radius " << mo.robot_radius_m << " m, " << (roadmap_now ? "" : "up to ")
-              << (roadmap_now ? roadmap_milestones : plan_options.roadmap.max_milestones)
-              << " roadmap milestones (mav-planning)";
-  figures.map_description = description.str();
-  return Status::Ok();
-}
-
-Status ServiceDriver::Impl::EnsureRoadmap() {
-  if (roadmap_built) return Status::Ok();
   const planning::RoadmapOptions& ro = plan_options.roadmap;
   v1::BuildRoadmapRequest roadmap;
   roadmap.set_time_budget_s(ro.time_budget_s);
@@ -310,7 +314,7 @@ Status ServiceDriver::Impl::EnsureRoadmap() {
       "mav-planning", addresses.planning, "BuildRoadmap",
       [&](grpc::ClientContext* c) { return planning->BuildRoadmap(c, roadmap, &roadmap_info); },
       options.setup_timeout_s));
-  roadmap_built = true;
+  planner_current = true;
   roadmap_milestones = roadmap_info.milestones();
   ++figures.roadmap_builds;
   return Status::Ok();
@@ -721,7 +725,7 @@ Result<mission::LegPlan> ServiceDriver::Plan(const Eigen::Vector3d& start,
   request.set_seed(s.options.vehicle.seed);
   request.set_start_yaw_rad(yaw_rad);
   v1::PlanPathResponse response;
-  Status called = s.EnsureRoadmap();
+  Status called = s.EnsurePlannerMap();
   if (called.ok()) {
     called = s.Unary("mav-planning", s.addresses.planning, "PlanPath", [&](grpc::ClientContext* c) {
       return s.planning->PlanPath(c, request, &response);

@@ -62,7 +62,11 @@ class ReferenceWindow {
   ReferenceWindow(const FeatureSet& ref, int ru, int rv, int r)
       : ref_(ref), ru_(ru), rv_(rv), r_(r) {
 #ifdef __SSE2__
-    if (r <= 3) {
+    // The 8-byte rows must lie inside the image (a feature keeps a wider margin; a match given
+    // by another caller may not: then the scalar path, which reads only when a target is in).
+    simd_ =
+        r <= 3 && ru - r >= 0 && ru - r + 8 <= ref.width() && rv - r >= 0 && rv + r < ref.height();
+    if (simd_) {
       // 8 bytes per row (the window plus padding, masked out in Ssd), widened to 16 bits.
       const __m128i zero = _mm_setzero_si128();
       const int w = ref.width();
@@ -84,7 +88,7 @@ class ReferenceWindow {
   int64_t Ssd(const FeatureSet& tgt, int tu, int tv) const {
     const int w = ref_.width(), r = r_;
 #ifdef __SSE2__
-    if (r <= 3) {
+    if (simd_) {
       // pmaddwd squares and pairs the masked 16-bit differences.
       const __m128i zero = _mm_setzero_si128();
       __m128i acc = _mm_setzero_si128();
@@ -126,6 +130,7 @@ class ReferenceWindow {
   const FeatureSet& ref_;
   int ru_, rv_, r_;
 #ifdef __SSE2__
+  bool simd_ = false;
   __m128i rows_[2][7];
   __m128i mask_;
 #endif

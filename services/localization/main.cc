@@ -25,6 +25,9 @@ int main(int argc, char** argv) {
                            "(sparse-pixel|sparse-subpixel|dense); needs --euroc or --simulator");
   calibration.Register(&runner.flags(), "--method");
   runner.ParseFlagsOrExit(argc, argv);
+  // Its large blocks are the stereo samples, their images and the VO's per-frame buffers, all
+  // recycled at frame rate: kept in the heap instead of mapped afresh for each frame.
+  mav::transport::KeepLargeSampleBuffers();
 
   mav::v1::LocalizationConfigureRequest startup;
   if (!method.empty()) {

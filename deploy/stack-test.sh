@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The stack in containers, end to end (docs/deploy.md). One command on a fresh Debian 12 machine:
 #
-#   deploy/stack-test.sh [--prebuilt] [--smoke] [--no-dds-security] [--load-seconds S] [--out DIR]
+#   deploy/stack-test.sh [--prebuilt] [--smoke] [--no-dds-security | --dds-shm] [--load-seconds S]
+#                        [--out DIR]
 #
 #  1. installs podman, runc, docker-compose and debootstrap when missing and writes the podman
 #     settings these machines need (/etc/containers/containers.conf.d/50-mav-stack.conf);
@@ -28,6 +29,9 @@
 # --prebuilt     pack the executables of build/ instead of compiling in the image (CI)
 # --smoke        stages 1-6 and 9 only (implies --prebuilt): what CI runs
 # --no-dds-security  the data plane without DDS Security (docker-compose.yml alone)
+# --dds-shm      the data plane in shared memory (deploy/compose.shm.yml: RouDi in a container,
+#                the services in its IPC namespace; implies --no-dds-security). Stage 5 then runs
+#                a listener in shared memory beside the mission instead of the credential checks.
 # --load-seconds seconds per load run (default 20)
 # --out DIR      reports and logs (default out/stack-test)
 # Environment: MAV_SIM_PORT, MAV_LOCALIZATION_PORT, MAV_MAPPING_PORT, MAV_PLANNING_PORT,
@@ -43,6 +47,7 @@ cd "$repo"
 prebuilt=0
 smoke=0
 dds_security=1
+dds_shm=0
 load_seconds=20
 out="$repo/out/stack-test"
 while [[ $# -gt 0 ]]; do
@@ -52,7 +57,8 @@ while [[ $# -gt 0 ]]; do
     --load-seconds) load_seconds="${2:?--load-seconds needs a value}"; shift 2 ;;
     --out) out="${2:?--out needs a value}"; shift 2 ;;
     --no-dds-security) dds_security=0; shift ;;
-    -h|--help) sed -n '2,38p' "$0"; exit 0 ;;
+    --dds-shm) dds_shm=1; dds_security=0; shift ;;
+    -h|--help) sed -n '2,42p' "$0"; exit 0 ;;
     *) echo "stack-test.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
@@ -78,6 +84,7 @@ bin="$repo/build/bin"
 # The stack's files (with DDS Security unless --no-dds-security), and the replicas' on top.
 base_files=(-f "$repo/docker-compose.yml")
 [[ $dds_security -eq 1 ]] && base_files+=(-f "$repo/deploy/compose.security.yml")
+[[ $dds_shm -eq 1 ]] && base_files+=(-f "$repo/deploy/compose.shm.yml")
 compose_files=("${base_files[@]}" -f "$repo/deploy/compose.replicas.yml")
 mkdir -p "$out/logs" "$out/load"
 work="$(mktemp -d /tmp/mav-stack-test.XXXXXX)"
@@ -243,7 +250,8 @@ if [[ $prebuilt -eq 1 ]]; then
     [[ -x "$bin/$e" ]] || fail "$bin/$e is missing: build the tree first (deploy/setup.sh)"
     cp "$bin/$e" "$ctx/bin/"
   done
-  cp deploy/cyclonedds.xml deploy/packages-runtime.txt deploy/image-runtime.sh "$ctx/deploy/"
+  cp deploy/cyclonedds.xml deploy/roudi.toml deploy/packages-runtime.txt deploy/image-runtime.sh \
+    "$ctx/deploy/"
   cp -r maps missions "$ctx/"
   podman build -f deploy/Dockerfile.prebuilt -t "$image" "$ctx" > "$out/logs/image-build.log" 2>&1 ||
     fail "podman build failed (log: $out/logs/image-build.log)"
@@ -302,9 +310,14 @@ if [[ $dds_security -eq 1 ]]; then
   chown -R 10001 "$MAV_DDS_SECURITY_DIR"/mav-* "$MAV_DDS_SECURITY_DIR"/mavctl
   security_note="DDS Security on (an identity per service, ENCRYPT)"
 fi
+if [[ $dds_shm -eq 1 ]]; then
+  security_note="DDS Security off, samples in shared memory (RouDi in its container)"
+  services=(iox-roudi "${services[@]}")
+fi
 docker-compose -p "$project" "${base_files[@]}" up -d --no-build "${services[@]}" \
   > "$out/logs/compose-up.log" 2>&1 || fail "docker-compose up failed (log: $out/logs/compose-up.log)"
 for s in "${services[@]}"; do wait_healthy "$s" 60; done
+[[ $dds_shm -eq 1 ]] && services=("${services[@]:1}")  # the later stages concern the five
 end "${#services[@]} services SERVING, DDS domain $MAV_DDS_DOMAIN, $security_note"
 
 # mission_summary JSON: the mission report's outcome, goals, ATE, collisions and speed, as one line.
@@ -331,6 +344,13 @@ if [[ $dds_security -eq 1 ]]; then
   listen_pids+=($!)
   bare_pids+=("${listen_pids[@]}")  # the teardown stops them if the mission fails
 fi
+if [[ $dds_shm -eq 1 ]]; then
+  # A listener in a container of its own, in RouDi's shared memory, while the mission flies.
+  docker-compose -p "$project" "${base_files[@]}" --profile shm-listen run --rm shm-listen \
+    > "$out/logs/listen-shm.log" 2>&1 &
+  listen_pids+=($!)
+  bare_pids+=("${listen_pids[@]}")
+fi
 docker-compose -p "$project" "${base_files[@]}" run --rm mission > "$out/logs/mission-1.log" 2>&1 ||
   { tail -20 "$out/logs/mission-1.log" >&2; fail "the first mission did not complete (log: $out/logs/mission-1.log)"; }
 volume_dir="$(podman volume inspect -f '{{.Mountpoint}}' "${project}_mav-data")"
@@ -345,6 +365,15 @@ if [[ $dds_security -eq 1 ]]; then
   [[ "$mavctl_frames" =~ ^[0-9]+$ && "$mavctl_frames" -gt 0 ]] ||
     fail "the listener with mavctl's identity received no stereo frame (log: $out/logs/listen-mavctl.log)"
   listen_note="; stereo frames to a listener without credentials: 0, with mavctl's identity: $mavctl_frames"
+fi
+if [[ $dds_shm -eq 1 ]]; then
+  wait "${listen_pids[@]}" || true
+  grep -qE 'RESULT frames=20 missing=0 crc_failures=0 .* shm=1 passed=1' "$out/logs/listen-shm.log" ||
+    fail "the listener in shared memory did not get 20 intact frames through it (log: $out/logs/listen-shm.log)"
+  "$bin/mavctl" sim status --port "$MAV_SIM_PORT" > "$out/logs/sim-status.log" 2>&1 || true
+  grep -q "stereo in shared memory" "$out/logs/sim-status.log" ||
+    fail "the simulator's stereo writer is not in shared memory (log: $out/logs/sim-status.log)" simulator
+  listen_note="; 20 stereo frames to a listener in shared memory, intact ($(grep -oE 'p50 [0-9.]+ ms' "$out/logs/listen-shm.log" | head -1) one-way)"
 fi
 end "$(mission_summary "$out/mission-1.json")$listen_note"
 

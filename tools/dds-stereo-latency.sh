@@ -7,22 +7,26 @@
 # trip p99); then the as-fast-as-subscribers replay (frames/s, one subscriber).
 #
 #   tools/dds-stereo-latency.sh [--frames N] [--rounds R] [--subscribers "1 4"]
-#                               [--settings "ours,waitset,normal"] [--seconds S] [--out DIR]
+#                               [--settings "ours,shm,waitset,normal"] [--seconds S] [--out DIR]
 #
 # Settings (the issue's levers, each alone off against ours):
-#   ours     rendering at SCHED_IDLE (mav-simulator --render-priority idle), frames taken on
-#            DDS's receive thread (mavctl listen --wake listener)
+#   ours     over UDP on loopback, rendering at SCHED_IDLE (mav-simulator --render-priority
+#            idle), frames taken on DDS's receive thread (mavctl listen --wake listener)
+#   shm      ours, but over Cyclone's shared-memory transport (MAV_DDS_SHM=1; the listeners
+#            keep the last 16 frames, as shared memory needs); starts iceoryx's RouDi with
+#            deploy/roudi.toml when none answers at /tmp/roudi, and stops it at the end
 #   waitset  ours, but frames taken by a thread woken by a waitset (--wake waitset)
 #   normal   ours, but rendering at normal priority (--render-priority normal)
 # Prints one markdown row per run and subscriber: one-way p50/p95/p99/max (publish stamp ->
-# take), the DDS hop's p50/p99 (dds_write -> take), frames lost. Needs build/bin (mav-simulator,
-# mavctl) and ddsperf (Debian's cyclonedds-tools).
+# take), the DDS hop's p50/p99 (dds_write -> take), frames lost, the transport the listener's
+# reader got. Then the fast replay once per transport. Needs build/bin (mav-simulator, mavctl),
+# ddsperf (Debian's cyclonedds-tools) and, for shm, iox-roudi (Debian's iceoryx).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 frames=1000
 rounds=1
 subscribers="1 4"
-settings="ours,waitset,normal"
+settings="ours,shm,waitset,normal"
 seconds=20
 out="$(mktemp -d /tmp/mav-dds-latency.XXXXXX)"
 while [[ $# -gt 0 ]]; do
@@ -33,7 +37,7 @@ while [[ $# -gt 0 ]]; do
     --settings) settings="${2:?}"; shift 2 ;;
     --seconds) seconds="${2:?}"; shift 2 ;;
     --out) out="${2:?}"; mkdir -p "$out"; shift 2 ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
     *) echo "dds-stereo-latency.sh: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done
@@ -48,8 +52,20 @@ pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2> /dev/null || true; done; wait 2> /dev/null || true; }
 trap cleanup EXIT
 
-start_simulator() {  # $1: render priority
-  "$bin/mav-simulator" --port "$port" --dds-domain "$domain" --render-priority "$1" \
+roudi_answers() {
+  python3 -c 'import socket; socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM).connect("/tmp/roudi")' \
+    2> /dev/null
+}
+if [[ ",$settings," == *,shm,* ]] && ! roudi_answers; then
+  command -v iox-roudi > /dev/null || { echo "dds-stereo-latency.sh: iox-roudi not found (Debian's iceoryx)" >&2; exit 1; }
+  iox-roudi -c "$repo/deploy/roudi.toml" > "$out/roudi.log" 2>&1 &
+  pids+=($!)
+  for _ in $(seq 50); do roudi_answers && break; sleep 0.1; done
+  roudi_answers || { echo "dds-stereo-latency.sh: iox-roudi did not come up (log: $out/roudi.log)" >&2; exit 1; }
+fi
+
+start_simulator() {  # $1: render priority, $2: MAV_DDS_SHM (0 or 1)
+  MAV_DDS_SHM="$2" "$bin/mav-simulator" --port "$port" --dds-domain "$domain" --render-priority "$1" \
     > "$out/sim.log" 2>&1 &
   sim_pid=$!
   pids+=("$sim_pid")
@@ -60,14 +76,15 @@ start_simulator() {  # $1: render priority
 
 # One run: the preset looped at 20 Hz until every subscriber has FRAMES frames.
 stream_run() {  # $1: setting, $2: round, $3: subscribers
-  local setting=$1 round=$2 subs=$3 priority=idle wake=listener
+  local setting=$1 round=$2 subs=$3 priority=idle wake=listener shm=0
   [[ "$setting" == waitset ]] && wake=waitset
   [[ "$setting" == normal ]] && priority=normal
-  start_simulator "$priority"
+  [[ "$setting" == shm ]] && shm=1
+  start_simulator "$priority" "$shm"
   "$bin/mavctl" sim load --port "$port" --preset room-easy > /dev/null
   local listeners=()
   for i in $(seq "$subs"); do
-    "$bin/mavctl" listen --topic stereo --frames "$frames" --timeout $(( frames / 10 + 60 )) \
+    MAV_DDS_SHM="$shm" "$bin/mavctl" listen --topic stereo --frames "$frames" --timeout $(( frames / 10 + 60 )) \
       --quiet --wake "$wake" --dds-domain "$domain" > "$out/listen-$setting-$round-$subs-$i.log" 2>&1 &
     listeners+=($!)
   done
@@ -83,19 +100,21 @@ setting, rnd, subs, i, frames = sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[
 lat = re.search(r"p50 ([0-9.]+) ms, p95 ([0-9.]+) ms, p99 ([0-9.]+) ms, max ([0-9.]+) ms", log)
 hop = re.search(r"DDS \(dds_write -> take, \w+\) ([0-9.]+) / ([0-9.]+) ms", log)
 res = re.search(r"RESULT frames=([0-9]+) missing=([0-9]+)", log)
+shm = re.search(r" shm=([01]) ", log)
+transport = ("shared memory" if shm.group(1) == "1" else "udp") if shm else "?"
 got, missing = (int(res.group(1)), int(res.group(2))) if res else (0, frames)
 cells = " / ".join(lat.groups()) if lat else "no frames"
 hops = " / ".join(hop.groups()) if hop else ""
-print("| %s | %s | %s of %s | %s | %s | %d |" % (setting, rnd, i, subs, cells, hops,
-      max(frames - got, 0) + missing))
+print("| %s | %s | %s of %s | %s | %s | %d | %s |" % (setting, rnd, i, subs, cells, hops,
+      max(frames - got, 0) + missing, transport))
 EOF
   done
 }
 
 echo "stereo stream: $frames frames per subscriber at 20 Hz, room-easy, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo
-echo "| setting | round | subscriber | one-way p50 / p95 / p99 / max ms | DDS hop p50 / p99 ms | lost |"
-echo "|---|---:|---:|---|---|---:|"
+echo "| setting | round | subscriber | one-way p50 / p95 / p99 / max ms | DDS hop p50 / p99 ms | lost | transport |"
+echo "|---|---:|---:|---|---|---:|---|"
 IFS=',' read -r -a setting_list <<< "$settings"
 for r in $(seq "$rounds"); do
   for subs in $subscribers; do
@@ -108,15 +127,22 @@ echo "Cyclone's floor: ddsperf ping/pong, 722 KiB at 20 Hz, Cyclone's default se
 echo
 "$repo/tools/dds-config-ablation.sh" --seconds "$seconds" --rounds 1 --only default
 
+fast_replay() {  # $1: MAV_DDS_SHM (0 or 1)
+  local shm=$1 transport=udp
+  [[ "$shm" == 1 ]] && transport="shared memory"
+  start_simulator idle "$shm"
+  "$bin/mavctl" sim load --port "$port" --preset room-easy --frames 600 > /dev/null
+  MAV_DDS_SHM="$shm" "$bin/mavctl" listen --topic stereo --frames 600 --timeout 120 --quiet \
+    --dds-domain "$domain" > "$out/listen-fast-$shm.log" 2>&1 &
+  local listener=$!
+  "$bin/mavctl" sim start --port "$port" --fast --wait-subscribers 1 --wait-timeout 20 > /dev/null
+  wait "$listener" || true
+  kill "$sim_pid"; wait "$sim_pid" 2> /dev/null || true
+  local rate
+  rate=$(sed -n 's/.*rate \([0-9.]*\) Hz.*/\1/p' "$out/listen-fast-$shm.log" | head -1)
+  echo "fast replay (--fast, one subscriber, 600 frames, rendering at SCHED_IDLE, $transport): ${rate:-?} frames/s"
+}
 echo
-start_simulator idle
-"$bin/mavctl" sim load --port "$port" --preset room-easy --frames 600 > /dev/null
-"$bin/mavctl" listen --topic stereo --frames 600 --timeout 120 --quiet \
-  --dds-domain "$domain" > "$out/listen-fast.log" 2>&1 &
-listener=$!
-"$bin/mavctl" sim start --port "$port" --fast --wait-subscribers 1 --wait-timeout 20 > /dev/null
-wait "$listener" || true
-kill "$sim_pid"; wait "$sim_pid" 2> /dev/null || true
-rate=$(sed -n 's/.*rate \([0-9.]*\) Hz.*/\1/p' "$out/listen-fast.log" | head -1)
-echo "fast replay (--fast, one subscriber, 600 frames, rendering at SCHED_IDLE): ${rate:-?} frames/s"
+fast_replay 0
+[[ ",$settings," == *,shm,* ]] && fast_replay 1
 echo "logs: $out"

@@ -86,7 +86,8 @@ struct Subscriptions {
 };
 
 // Readers keep everything (KEEP_ALL, reliable): a reader that falls behind throttles the writer
-// instead of losing frames, which is what a verifying subscriber wants.
+// instead of losing frames, which is what a verifying subscriber wants. The stereo reader keeps
+// the last N instead when asked, or with shared memory (ListenOptions::keep_last).
 Status Subscribe(const transport::Participant& participant, const ListenOptions& options,
                  Subscriptions* subs) {
   using transport::Qos;
@@ -94,9 +95,15 @@ Status Subscribe(const transport::Participant& participant, const ListenOptions&
     MAV_ASSIGN_OR_RETURN(subs->stereo_topic,
                          transport::Topic<mav_dds_StereoFrame>::Create(
                              participant, transport::kStereoTopic, &mav_dds_StereoFrame_desc));
-    MAV_ASSIGN_OR_RETURN(subs->stereo,
-                         transport::Reader<mav_dds_StereoFrame>::Create(
-                             participant, *subs->stereo_topic, Qos::SensorStream().KeepAll()));
+    const int64_t depth = options.StereoDepth();
+    Qos qos = Qos::SensorStream();
+    if (depth == 0) {
+      qos.KeepAll();
+    } else {
+      qos.KeepLast(static_cast<int32_t>(depth));
+    }
+    MAV_ASSIGN_OR_RETURN(subs->stereo, transport::Reader<mav_dds_StereoFrame>::Create(
+                                           participant, *subs->stereo_topic, qos));
   }
   if (WantsImu(options)) {
     MAV_ASSIGN_OR_RETURN(subs->imu_topic,
@@ -242,6 +249,11 @@ ListenReport MakeReport(const Received& received) {
 
 }  // namespace
 
+int64_t ListenOptions::StereoDepth() const {
+  if (keep_last >= 0) return keep_last;
+  return dds.shared_memory ? kSharedMemoryDepth : 0;
+}
+
 bool ListenOptions::IsValid(std::string* why) const {
   if (topic != "stereo" && topic != "imu" && topic != "ground_truth" && topic != "all") {
     if (why != nullptr)
@@ -254,6 +266,12 @@ bool ListenOptions::IsValid(std::string* why) const {
   }
   if (frames < 0) {
     if (why != nullptr) *why = "--frames: must be >= 0, got " + std::to_string(frames);
+    return false;
+  }
+  if (keep_last < -1 || keep_last > 256) {
+    if (why != nullptr) {
+      *why = "--keep-last: must be 0 (keep all) or 1..256, got " + std::to_string(keep_last);
+    }
     return false;
   }
   if (!(timeout_s > 0.0)) {
@@ -315,6 +333,10 @@ Result<ListenReport> Listen(const ListenOptions& options, std::ostream& progress
   ListenReport report = MakeReport(received);
   report.reached_target = reached_target;
   report.elapsed_s = elapsed_s;
+  if (subs.stereo.has_value()) {
+    report.stereo_depth = options.StereoDepth();
+    report.stereo_shared_memory = subs.stereo->UsesSharedMemory();
+  }
   return report;
 }
 
@@ -336,6 +358,9 @@ void PrintReport(const ListenOptions& options, const ListenReport& report, std::
       out << " (seq " << report.first_sequence << ".." << report.last_sequence << ", "
           << report.width << "x" << report.height << ")";
     }
+    out << ", " << (report.stereo_shared_memory ? "shared memory" : "udp") << ", "
+        << (report.stereo_depth == 0 ? std::string("keep all")
+                                     : "keep last " + std::to_string(report.stereo_depth));
     out << "\n              missing " << report.missing;
     if (!report.missing_examples.empty()) {
       out << " (e.g.";
@@ -369,7 +394,7 @@ void PrintReport(const ListenOptions& options, const ListenReport& report, std::
   out << "RESULT frames=" << report.frames << " missing=" << report.missing
       << " crc_failures=" << report.crc_failures << " out_of_order=" << report.out_of_order
       << " first_seq=" << report.first_sequence << " imu=" << report.imu_samples
-      << " ground_truth=" << report.ground_truth
+      << " ground_truth=" << report.ground_truth << " shm=" << (report.stereo_shared_memory ? 1 : 0)
       << " passed=" << (ReportPassed(options, report) ? 1 : 0) << "\n";
 }
 

@@ -24,10 +24,19 @@ struct ListenOptions {
   // How stereo frames are taken: "listener" (on Cyclone's receive thread, as soon as a frame is
   // complete) or "waitset" (by this thread, woken by a waitset: one thread hand-off more).
   std::string wake = "listener";
+  // The stereo reader's history: 0 = KEEP_ALL (a reader that falls behind throttles the writer
+  // instead of losing frames), N in 1..256 = KEEP_LAST N (frames beyond N not yet taken are lost,
+  // and counted missing). Cyclone carries only KEEP_LAST readers in shared memory (dds.
+  // shared_memory), so -1 (the default) means KEEP_ALL without shared memory and
+  // KEEP_LAST kSharedMemoryDepth with it.
+  int64_t keep_last = -1;
+  static constexpr int64_t kSharedMemoryDepth = 16;
   // Print one line per second while listening.
   bool progress = true;
 
   bool IsValid(std::string* why) const;
+  // keep_last with -1 resolved as above.
+  int64_t StereoDepth() const;
 };
 
 struct ListenReport {
@@ -41,6 +50,10 @@ struct ListenReport {
   std::string first_error;
   int width = 0;
   int height = 0;
+  // How the stereo reader was set up: its history (0 = keep all) and whether Cyclone carries
+  // its frames in shared memory.
+  int64_t stereo_depth = 0;
+  bool stereo_shared_memory = false;
   double rate_hz = 0.0;
   double latency_mean_ms = 0.0;
   double latency_p50_ms = 0.0;

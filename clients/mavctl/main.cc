@@ -6,7 +6,7 @@
 //   mavctl sim occupancy --out FILE [--resolution 0.05] [--format bt|mavocc]
 //   mavctl health [--port P] [--service NAME]
 //   mavctl listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]
-//                 [--wake listener|waitset]
+//                 [--wake listener|waitset] [--keep-last N] [--dds-shm]
 //   mavctl sim flight load|run|pause|status   (the simulator's flight mode)
 //   mavctl ctl configure|arm|disarm|hover|trajectory|gains|state|status   (mav-control)
 //   mavctl plan load|roadmap|path|legs|get|sample|status   (mav-planning)
@@ -62,7 +62,7 @@ constexpr char kUsage[] =
     "  sim occupancy --out FILE [--resolution M] [--format bt|mavocc]\n"
     "  health [--port P] [--service NAME]\n"
     "  listen [--topic stereo|imu|ground_truth|all] [--frames N] [--timeout S]\n"
-    "         [--wake listener|waitset]\n"
+    "         [--wake listener|waitset] [--keep-last N] [--dds-shm]\n"
     "  loc configure --method sparse-pixel|sparse-subpixel|dense [--euroc DIR | --simulator ADDR]\n"
     "  loc reset | loc status | loc trajectory --out FILE.tum   (port 50052)\n"
     "  map start|reset|insert|build|occupancy|query|mesh|status  (mavctl map --help; port 50053)\n"
@@ -131,7 +131,8 @@ void PrintStatus(const mav::v1::SimulatorStatus& s) {
                     : "real-time factor " + std::to_string(s.real_time_factor()))
             << (s.loop() ? ", loop" : "") << "; achieved " << s.achieved_rate_hz() << " Hz\n"
             << "dds:        domain " << s.dds_domain() << ", stereo subscribers "
-            << s.stereo_subscribers() << ", imu subscribers " << s.imu_subscribers() << "\n"
+            << s.stereo_subscribers() << ", imu subscribers " << s.imu_subscribers()
+            << (s.dds_shared_memory() ? ", stereo in shared memory" : "") << "\n"
             << "render:     mean " << s.render_ms().mean_ms() << " ms, p95 "
             << s.render_ms().p95_ms() << " ms (" << s.render_ms().count() << ")\n"
             << "publish:    mean " << s.publish_ms().mean_ms() << " ms, p95 "
@@ -363,6 +364,12 @@ int ListenCommand(const std::vector<std::string>& args) {
   flags.AddString("wake", &options.wake,
                   "listener: take stereo frames on DDS's receive thread (lowest latency); "
                   "waitset: on this thread, woken by a waitset");
+  flags.AddInt("keep-last", &options.keep_last,
+               "stereo reader's history: 0 = keep all (a slow reader throttles the writer), "
+               "1..256 = the last N (older untaken frames are lost and counted missing); "
+               "default: keep all, or 16 with --dds-shm (shared memory carries only keep-last "
+               "readers)",
+               0, 256);
   mav::transport::AddDdsFlags(&flags, &options.dds);
   ParseOrExit(&flags, nullptr, args);
   if (const mav::Status s = mav::transport::ApplyDdsEnv(flags, &options.dds); !s.ok()) {

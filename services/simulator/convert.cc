@@ -117,6 +117,7 @@ void ToProto(const PlayerStatus& status, v1::SimulatorStatus* out) {
   ToProto(status.render_ms, out->mutable_render_ms());
   ToProto(status.publish_ms, out->mutable_publish_ms());
   out->set_dds_domain(status.dds_domain);
+  out->set_dds_shared_memory(status.dds_shared_memory);
   out->set_last_error(status.last_error);
 }
 

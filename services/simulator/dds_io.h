@@ -69,6 +69,7 @@ class DdsStreamSink : public StreamSink, public FlightIo {
   // Computes the frame's CRC-32 (FillStereoFrame then takes it from the frame).
   void PrepareStereo(RenderedFrame* frame) override;
   uint32_t domain() const override { return static_cast<uint32_t>(participant_.domain()); }
+  bool SharedMemory() const override { return stereo_.has_value() && stereo_->UsesSharedMemory(); }
 
   // FlightIo (flight mode).
   Status PublishFlightImu(uint64_t sequence, const dataset::ImuSample& sample) override;

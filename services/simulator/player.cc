@@ -220,6 +220,7 @@ PlayerStatus Player::StatusLocked() const {
   status.render_ms = render_ms_.Summary();
   status.publish_ms = publish_ms_.Summary();
   status.dds_domain = sink_->domain();
+  status.dds_shared_memory = sink_->SharedMemory();
   status.last_error = last_error_;
   return status;
 }

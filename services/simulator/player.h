@@ -51,6 +51,8 @@ class StreamSink {
   virtual uint32_t StereoSubscribers() = 0;
   virtual uint32_t ImuSubscribers() = 0;
   virtual uint32_t domain() const = 0;
+  // The stereo writer is in shared memory (transport::Entity::UsesSharedMemory).
+  virtual bool SharedMemory() const { return false; }
   // Work on a frame that can be done before its turn, on the rendering thread (the DDS sink
   // computes the sample's CRC-32 there, off the publishing path). Must be thread-safe.
   virtual void PrepareStereo(RenderedFrame* frame) { (void)frame; }
@@ -89,6 +91,7 @@ struct PlayerStatus {
   RuntimeStats render_ms;
   RuntimeStats publish_ms;
   uint32_t dds_domain = 0;
+  bool dds_shared_memory = false;
   std::string last_error;
 };
 

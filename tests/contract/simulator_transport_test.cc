@@ -3,15 +3,19 @@
 // (typed write/take with loans, matched counts, waits, errors with dds_strretcode text).
 
 #include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <map>
 #include <mutex>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -190,6 +194,77 @@ TEST(DdsOptionsTest, ConfigResolutionAndDomainValidation) {
   EXPECT_NE(why.find("domain"), std::string::npos);
   const auto participant = Participant::Create(options);
   EXPECT_EQ(participant.status().code(), StatusCode::kInvalidArgument);
+}
+
+// Shared memory (iceoryx): the flag and MAV_DDS_SHM, the fragment appended to the config, the
+// refusal to combine it with DDS Security, and the RouDi check that keeps a participant from
+// waiting forever for a daemon that is not there (a missing socket, and a stale one).
+TEST(DdsOptionsTest, SharedMemoryFlagEnvironmentConfigAndRoudiCheck) {
+  ::unsetenv("CYCLONEDDS_URI");
+  ::unsetenv("MAV_DDS_SHM");
+  {
+    FlagParser flags("t", "");
+    DdsOptions options;
+    AddDdsFlags(&flags, &options);
+    ASSERT_TRUE(flags.Parse({"--dds-shm"}, nullptr).ok());
+    ASSERT_TRUE(ApplyDdsEnv(flags, &options).ok());
+    EXPECT_TRUE(options.shared_memory);
+    EXPECT_EQ(options.ResolvedConfig(),
+              std::string(LoopbackDdsConfig()) + "," + SharedMemoryConfig());
+  }
+  for (const auto& [value, on] :
+       std::vector<std::pair<std::string, bool>>{{"1", true}, {"0", false}}) {
+    FlagParser flags("t", "");
+    DdsOptions options;
+    AddDdsFlags(&flags, &options);
+    ASSERT_TRUE(flags.Parse({}, nullptr).ok());
+    ::setenv("MAV_DDS_SHM", value.c_str(), 1);
+    ASSERT_TRUE(ApplyDdsEnv(flags, &options).ok());
+    EXPECT_EQ(options.shared_memory, on) << value;
+  }
+  {
+    FlagParser flags("t", "");
+    DdsOptions options;
+    AddDdsFlags(&flags, &options);
+    ASSERT_TRUE(flags.Parse({}, nullptr).ok());
+    ::setenv("MAV_DDS_SHM", "yes", 1);
+    const Status status = ApplyDdsEnv(flags, &options);
+    EXPECT_EQ(status.code(), StatusCode::kInvalidArgument);
+    EXPECT_NE(status.message().find("MAV_DDS_SHM: 'yes'"), std::string::npos) << status.message();
+  }
+  ::unsetenv("MAV_DDS_SHM");
+
+  DdsOptions both;
+  both.shared_memory = true;
+  both.security_dir = "/tmp/identity";
+  std::string why;
+  EXPECT_FALSE(both.IsValid(&why));
+  EXPECT_NE(why.find("cannot be combined"), std::string::npos) << why;
+  EXPECT_EQ(Participant::Create(both).status().code(), StatusCode::kInvalidArgument);
+
+  const std::string missing = "/tmp/mav-no-roudi-" + std::to_string(::getpid());
+  Status status = CheckRoudi(missing);
+  EXPECT_EQ(status.code(), StatusCode::kUnavailable);
+  EXPECT_NE(status.message().find(missing), std::string::npos) << status.message();
+  EXPECT_NE(status.message().find("iox-roudi"), std::string::npos) << status.message();
+
+  // A socket file nobody listens on any more, as a RouDi that was killed leaves behind.
+  const std::string stale = "/tmp/mav-stale-roudi-" + std::to_string(::getpid());
+  {
+    const int fd = ::socket(AF_UNIX, SOCK_DGRAM, 0);
+    ASSERT_GE(fd, 0);
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    std::snprintf(address.sun_path, sizeof(address.sun_path), "%s", stale.c_str());
+    ASSERT_EQ(::bind(fd, reinterpret_cast<const sockaddr*>(&address), sizeof(address)), 0);
+    EXPECT_TRUE(CheckRoudi(stale).ok());  // bound: answers
+    ::close(fd);
+  }
+  status = CheckRoudi(stale);
+  EXPECT_EQ(status.code(), StatusCode::kUnavailable);
+  EXPECT_NE(status.message().find("Connection refused"), std::string::npos) << status.message();
+  ::unlink(stale.c_str());
+  EXPECT_EQ(CheckRoudi(std::string(200, 'x')).code(), StatusCode::kInvalidArgument);
 }
 
 TEST(DdsTest, ABrokenConfigFailsWithTheDdsReason) {

@@ -3,14 +3,17 @@
 //    (CRC-32) and in order;
 //  * end to end: the mav-simulator binary on a free port, driven over gRPC (health, LoadScenario,
 //    Start as fast as subscribers), streams room-easy to a subscriber in this process, and shuts
-//    down cleanly on SIGTERM.
+//    down cleanly on SIGTERM;
+//  * the same stream through Cyclone's shared-memory transport (iceoryx, --dds-shm).
 // Each test uses a DDS domain derived from the pid so concurrent test runs do not cross-talk.
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -58,6 +61,43 @@ std::map<std::string, std::string> ParseResult(const std::string& output) {
   return fields;
 }
 
+// Waits for a `mavctl listen` (up to 60 s) and checks its RESULT line: exit 0, `frames` frames
+// from sequence 0, none missing, out of order or corrupt. Its output goes to *output.
+void ExpectEveryFrameIntact(Child& listener, int frames, std::string* output) {
+  *output = listener.ReadAll();
+  const std::optional<int> exit_code = listener.Wait(std::chrono::seconds(60));
+  ASSERT_TRUE(exit_code.has_value()) << "mavctl listen did not finish:\n" << *output;
+  EXPECT_EQ(*exit_code, 0) << *output;
+  const auto result = ParseResult(*output);
+  ASSERT_FALSE(result.empty()) << *output;
+  EXPECT_EQ(result.at("frames"), std::to_string(frames)) << *output;
+  EXPECT_EQ(result.at("first_seq"), "0") << *output;
+  EXPECT_EQ(result.at("missing"), "0") << *output;
+  EXPECT_EQ(result.at("out_of_order"), "0") << *output;
+  EXPECT_EQ(result.at("crc_failures"), "0") << *output;
+}
+
+// Publishes `frames` synthetic 752x480 pairs of seeded noise (every byte matters to the
+// checksum), each acknowledged by every matched reader before the next.
+void PublishNoiseFrames(simulator_service::DdsStreamSink& sink, int frames) {
+  cv::RNG rng(42);
+  const int64_t start_ns = MonotonicNowNs();
+  for (int k = 0; k < frames; ++k) {
+    simulator_service::RenderedFrame frame;
+    frame.index = k;
+    frame.t_ns = 1'000'000'000 + k * 50'000'000LL;
+    frame.left = cv::Mat(480, 752, CV_8UC1);
+    frame.right = cv::Mat(480, 752, CV_8UC1);
+    rng.fill(frame.left, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(frame.right, cv::RNG::UNIFORM, 0, 256);
+    ASSERT_TRUE(sink.PublishStereo(k, frame, false).ok());
+    ASSERT_TRUE(sink.WaitForStereoAcks(5'000'000'000).ok()) << "frame " << k;
+  }
+  const double publish_s = NsToSeconds(MonotonicNowNs() - start_ns);
+  std::printf("%d frames of 722 KB published and acknowledged in %.3f s (%.1f frames/s)\n", frames,
+              publish_s, frames / publish_s);
+}
+
 // Two subscribers in other processes, one taking on DDS's receive thread (mavctl listen's
 // default, --wake listener), one woken by a waitset.
 TEST(DdsLoopbackTest, SubscribersInOtherProcessesReceiveEveryStereoFrameIntact) {
@@ -81,36 +121,10 @@ TEST(DdsLoopbackTest, SubscribersInOtherProcessesReceiveEveryStereoFrameIntact) 
   }
   ASSERT_GE((*sink)->StereoSubscribers(), 2u) << "the two mavctl listen never matched";
 
-  // Synthetic 752x480 pairs of seeded noise: every byte matters to the checksum.
-  cv::RNG rng(42);
-  const int64_t start_ns = MonotonicNowNs();
-  for (int k = 0; k < kFrames; ++k) {
-    simulator_service::RenderedFrame frame;
-    frame.index = k;
-    frame.t_ns = 1'000'000'000 + k * 50'000'000LL;
-    frame.left = cv::Mat(480, 752, CV_8UC1);
-    frame.right = cv::Mat(480, 752, CV_8UC1);
-    rng.fill(frame.left, cv::RNG::UNIFORM, 0, 256);
-    rng.fill(frame.right, cv::RNG::UNIFORM, 0, 256);
-    ASSERT_TRUE((*sink)->PublishStereo(k, frame, false).ok());
-    ASSERT_TRUE((*sink)->WaitForStereoAcks(5'000'000'000).ok()) << "frame " << k;
-  }
-  const double publish_s = NsToSeconds(MonotonicNowNs() - start_ns);
-
-  std::printf("%d frames of 722 KB published and acknowledged in %.3f s (%.1f frames/s)\n", kFrames,
-              publish_s, kFrames / publish_s);
+  ASSERT_NO_FATAL_FAILURE(PublishNoiseFrames(**sink, kFrames));
   for (const auto& listener : listeners) {
-    const std::string output = listener->ReadAll();
-    const std::optional<int> exit_code = listener->Wait(std::chrono::seconds(30));
-    ASSERT_TRUE(exit_code.has_value()) << "mavctl listen did not finish:\n" << output;
-    EXPECT_EQ(*exit_code, 0) << output;
-    const auto result = ParseResult(output);
-    ASSERT_FALSE(result.empty()) << output;
-    EXPECT_EQ(result.at("frames"), std::to_string(kFrames)) << output;
-    EXPECT_EQ(result.at("first_seq"), "0") << output;
-    EXPECT_EQ(result.at("missing"), "0") << output;
-    EXPECT_EQ(result.at("out_of_order"), "0") << output;
-    EXPECT_EQ(result.at("crc_failures"), "0") << output;
+    std::string output;
+    ASSERT_NO_FATAL_FAILURE(ExpectEveryFrameIntact(*listener, kFrames, &output));
     EXPECT_NE(output.find("hops p50 / p99: publisher"), std::string::npos) << output;
     std::printf("%s", output.c_str());
   }
@@ -127,6 +141,87 @@ TEST(DdsLoopbackTest, SubscribersInOtherProcessesReceiveEveryStereoFrameIntact) 
                                std::istreambuf_iterator<char>());
   EXPECT_NE(bad_output.find("--wake: 'poll' is not one of listener|waitset"), std::string::npos)
       << bad_output;
+}
+
+// Runs `mavctl ARGS...` to the end (up to 60 s); its exit status, -1 if it did not finish. Its
+// standard output goes to *output if given, else is printed on failure.
+int Mavctl(std::vector<std::string> args, std::string* output = nullptr) {
+  args.insert(args.begin(), kBinDir + "/mavctl");
+  Child child(args);
+  const std::string text = child.ReadAll();
+  const std::optional<int> code = child.Wait(std::chrono::seconds(60));
+  if (output != nullptr) {
+    *output = text;
+  } else if (code != std::optional<int>(0)) {
+    std::printf("%s", text.c_str());
+  }
+  return code.value_or(-1);
+}
+
+// Cyclone's shared-memory transport (--dds-shm): the mav-simulator binary streams room-easy as
+// fast as its subscriber takes it, and the frames reach `mavctl listen --dds-shm` in another
+// process through iceoryx (its reader says so), intact and in order. Uses the machine's RouDi if
+// one answers, else starts one with deploy/roudi.toml and stops it at the end. This process never
+// joins shared memory itself: a RouDi that stops terminates every process registered with it.
+TEST(DdsLoopbackTest, SharedMemoryCarriesEveryStereoFrameToAnotherProcess) {
+  constexpr int kFrames = 40;
+  std::system(("mkdir -p " + mav::testing::BinaryDir() + "/Testing").c_str());
+  const std::string logs = mav::testing::BinaryDir() + "/Testing/";
+  const std::string pid = std::to_string(::getpid());
+  std::unique_ptr<Child> roudi;
+  if (!transport::CheckRoudi().ok()) {
+    const std::string exe = "/usr/bin/iox-roudi";
+    ASSERT_EQ(::access(exe.c_str(), X_OK), 0)
+        << exe << " is missing: install Debian's iceoryx (deploy/setup.sh does)";
+    roudi = std::make_unique<Child>(
+        std::vector<std::string>{exe, "-c", mav::testing::SourceDir() + "/deploy/roudi.toml"},
+        logs + "iox-roudi-" + pid + ".log");
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (!transport::CheckRoudi().ok() && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    ASSERT_TRUE(transport::CheckRoudi().ok()) << "iox-roudi did not come up; see logs in " << logs;
+  }
+  const std::string domain = std::to_string(TestDomain(31));
+  const std::string port = std::to_string(FreeTcpPort());
+  {
+    Child simulator(
+        {kBinDir + "/mav-simulator", "--port", port, "--dds-domain", domain, "--dds-shm"},
+        logs + "mav-simulator-shm-" + pid + ".log");
+    Child listener({kBinDir + "/mavctl", "listen", "--topic", "stereo", "--frames",
+                    std::to_string(kFrames), "--timeout", "60", "--dds-domain", domain, "--quiet",
+                    "--dds-shm"});
+    ASSERT_TRUE(simulator.running() && listener.running());
+    int health = -1;
+    for (int i = 0; i < 100 && health != 0; ++i) {
+      health = Mavctl({"health", "--port", port, "--timeout", "1"});
+      if (health != 0) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    ASSERT_EQ(health, 0) << "mav-simulator did not come up; see " << logs;
+    ASSERT_EQ(Mavctl({"sim", "load", "--port", port, "--preset", "room-easy", "--frames",
+                      std::to_string(kFrames)}),
+              0);
+    ASSERT_EQ(Mavctl({"sim", "start", "--port", port, "--fast", "--wait-subscribers", "1",
+                      "--wait-timeout", "20"}),
+              0);
+
+    std::string output;
+    ASSERT_NO_FATAL_FAILURE(ExpectEveryFrameIntact(listener, kFrames, &output));
+    EXPECT_EQ(ParseResult(output).at("shm"), "1") << "the reader is not in shared memory:\n"
+                                                  << output;
+    EXPECT_NE(output.find("shared memory, keep last 16"), std::string::npos) << output;
+    std::printf("%s", output.c_str());
+    // The writer's side: the simulator says its stereo writer is in shared memory too.
+    std::string status;
+    EXPECT_EQ(Mavctl({"sim", "status", "--port", port}, &status), 0);
+    EXPECT_NE(status.find("stereo in shared memory"), std::string::npos) << status;
+    simulator.Signal(SIGTERM);
+    EXPECT_EQ(simulator.Wait(std::chrono::seconds(10)), std::optional<int>(0));
+  }
+  if (roudi != nullptr) {  // SIGTERM: RouDi removes its shared memory and socket on the way out
+    roudi->Signal(SIGTERM);
+    EXPECT_TRUE(roudi->Wait(std::chrono::seconds(15)).has_value());
+  }
 }
 
 // The simulator binary renders at SCHED_IDLE (--render-priority idle), the CRC computed ahead.

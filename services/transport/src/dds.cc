@@ -1,5 +1,7 @@
 #include "mav/transport/dds.h"
 
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -10,6 +12,8 @@
 #include <map>
 #include <mutex>
 #include <thread>
+
+#include <dds/ddsc/dds_loan_api.h>
 
 #include "mav/common/log.h"
 #include "mav/common/parse.h"
@@ -38,6 +42,13 @@ constexpr char kLoopbackDdsConfig[] =
     "<HeartbeatInterval>5ms</HeartbeatInterval>"
     "<Watermarks><WhcHigh>4MiB</WhcHigh></Watermarks>"
     "</Internal>"
+    "</Domain></CycloneDDS>";
+
+// Appended to the configuration by DdsOptions::shared_memory. Warnings only: iceoryx's info
+// lines go to standard output, one per reader and writer.
+constexpr char kSharedMemoryConfig[] =
+    "<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\">"
+    "<SharedMemory><Enable>true</Enable><LogLevel>warn</LogLevel></SharedMemory>"
     "</Domain></CycloneDDS>";
 
 constexpr int64_t kMaxDomainId = 230;
@@ -85,6 +96,7 @@ Status DdsStatus(dds_return_t ret, const std::string& what) {
 }
 
 const char* LoopbackDdsConfig() { return kLoopbackDdsConfig; }
+const char* SharedMemoryConfig() { return kSharedMemoryConfig; }
 
 bool DdsOptions::IsValid(std::string* why) const {
   if (domain < 0 || domain > kMaxDomainId) {
@@ -94,7 +106,43 @@ bool DdsOptions::IsValid(std::string* why) const {
     }
     return false;
   }
+  if (shared_memory && !security_dir.empty()) {
+    if (why != nullptr) {
+      *why =
+          "dds shared memory (--dds-shm, MAV_DDS_SHM) and DDS Security (--dds-security, "
+          "MAV_DDS_SECURITY) cannot be combined: samples in shared memory bypass the "
+          "security plugins' encryption and access control";
+    }
+    return false;
+  }
   return true;
+}
+
+bool Entity::UsesSharedMemory() const {
+  return handle_ > 0 && dds_is_shared_memory_available(handle_);
+}
+
+Status CheckRoudi(const std::string& socket_path) {
+  const std::string how =
+      " (DDS shared memory is on: start iceoryx's RouDi first, e.g. "
+      "`iox-roudi -c deploy/roudi.toml &`, Debian package iceoryx; or "
+      "turn --dds-shm / MAV_DDS_SHM off)";
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (socket_path.empty() || socket_path.size() >= sizeof(address.sun_path)) {
+    return Status::InvalidArgument("RouDi socket path '" + socket_path + "': empty or too long");
+  }
+  std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
+  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return Status::Unavailable(std::string("socket(AF_UNIX): ") + std::strerror(errno));
+  // A datagram socket's connect() succeeds only while a process has the path bound: a socket
+  // file left behind by a RouDi that died gives ECONNREFUSED.
+  const int rc = ::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof(address));
+  const int error = errno;
+  ::close(fd);
+  if (rc == 0) return Status::Ok();
+  return Status::Unavailable("iceoryx RouDi does not answer at " + socket_path + ": " +
+                             std::strerror(error) + how);
 }
 
 std::string DdsOptions::ResolvedConfig() const {
@@ -108,7 +156,9 @@ std::string DdsOptions::ResolvedConfig() const {
   }
   // Cyclone reads a comma-separated list of files and XML fragments, later ones adding to (and
   // overriding) earlier ones.
-  return security_dir.empty() ? base : base + "," + SecurityConfig(security_dir);
+  if (!security_dir.empty()) base.append(",").append(SecurityConfig(security_dir));
+  if (shared_memory) base.append(",").append(kSharedMemoryConfig);
+  return base;
 }
 
 std::string SecurityConfig(const std::string& dir) {
@@ -170,6 +220,9 @@ void AddDdsFlags(FlagParser* flags, DdsOptions* options) {
                    "DDS Security identity directory, OUT/<program> of "
                    "deploy/dds-security/make-certs.sh (env MAV_DDS_SECURITY; default: none, "
                    "the data plane unauthenticated)");
+  flags->AddBool("dds-shm", &options->shared_memory,
+                 "carry samples between processes on this machine in shared memory (Cyclone's "
+                 "iceoryx transport; needs iox-roudi running; env MAV_DDS_SHM=1)");
 }
 
 Status ApplyDdsEnv(const FlagParser& flags, DdsOptions* options) {
@@ -188,6 +241,16 @@ Status ApplyDdsEnv(const FlagParser& flags, DdsOptions* options) {
   }
   if (!options->security_dir.empty()) {
     MAV_ASSIGN_OR_RETURN(options->security_dir, CheckSecurityDir(options->security_dir, what));
+  }
+  if (!flags.WasSet("dds-shm")) {
+    if (const char* text = std::getenv("MAV_DDS_SHM"); text != nullptr && *text != '\0') {
+      const std::string value = text;
+      if (value != "0" && value != "1") {
+        return Status::InvalidArgument("environment variable MAV_DDS_SHM: '" + value +
+                                       "' is neither 0 nor 1");
+      }
+      options->shared_memory = value == "1";
+    }
   }
   std::string why;
   if (!options->IsValid(&why)) return Status::InvalidArgument(why);
@@ -272,6 +335,26 @@ Entity& Entity::operator=(Entity&& other) noexcept {
   return *this;
 }
 
+namespace {
+
+// CheckRoudi, retried for up to kRoudiWaitMs: a service started beside RouDi (compose starts
+// both at once) waits for it instead of failing.
+constexpr int kRoudiWaitMs = 5000;
+Status WaitForRoudi() {
+  Status status = CheckRoudi();
+  for (int waited_ms = 0; !status.ok() && waited_ms < kRoudiWaitMs; waited_ms += 100) {
+    if (waited_ms == 0) {
+      MAV_LOG(kInfo) << "waiting up to " << kRoudiWaitMs / 1000 << " s for iceoryx RouDi at "
+                     << kRoudiSocket;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    status = CheckRoudi();
+  }
+  return status;
+}
+
+}  // namespace
+
 // One dds_create_domain() per domain id and process, shared by that process's participants and
 // deleted with the last one (deleting a domain deletes all its participants).
 struct Participant::DomainRef {
@@ -289,6 +372,7 @@ Result<Participant> Participant::Create(const DdsOptions& options) {
   std::lock_guard<std::mutex> lock(mutex);
   std::shared_ptr<DomainRef> domain = domains[options.domain].lock();
   if (domain == nullptr) {
+    if (options.shared_memory) MAV_RETURN_IF_ERROR(WaitForRoudi());
     const std::string config = options.ResolvedConfig();
     const dds_entity_t handle =
         dds_create_domain(static_cast<dds_domainid_t>(options.domain), config.c_str());
@@ -300,6 +384,10 @@ Result<Participant> Participant::Create(const DdsOptions& options) {
     if (!options.security_dir.empty()) {
       MAV_LOG(kInfo) << "DDS domain " << options.domain << ": DDS Security on, identity "
                      << options.security_dir;
+    }
+    if (options.shared_memory) {
+      MAV_LOG(kInfo) << "DDS domain " << options.domain << ": shared memory on (iceoryx RouDi at "
+                     << kRoudiSocket << ")";
     }
     domain = std::make_shared<DomainRef>();
     domain->handle = handle;

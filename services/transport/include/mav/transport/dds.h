@@ -60,6 +60,9 @@ inline constexpr char kGroundTruthTopic[] = "mav/sim/ground_truth";
 inline constexpr char kPoseTopic[] = "mav/localization/pose";
 inline constexpr char kActuatorTopic[] = "mav/control/actuators";
 
+// Where iceoryx 2's RouDi daemon listens (a Unix datagram socket; fixed by iceoryx).
+inline constexpr char kRoudiSocket[] = "/tmp/roudi";
+
 // `ret` < 0 -> a Status naming `what` and dds_strretcode(ret); otherwise OK.
 Status DdsStatus(dds_return_t ret, const std::string& what);
 
@@ -78,12 +81,31 @@ struct DdsOptions {
   // identity_ca.pem, permissions_ca.pem, governance.p7s, permissions.p7s), as an absolute path.
   // Empty: no security (every participant on the domain is trusted).
   std::string security_dir;
+  // Cyclone's shared-memory transport (iceoryx): samples of a topic whose writer and reader are
+  // on this machine and whose QoS allows it (KEEP_LAST history, volatile or transient-local,
+  // automatic liveliness, no deadline: every stream of ours but `mavctl listen`'s KEEP_ALL) go
+  // through iceoryx's shared memory instead of UDP; discovery and the other readers stay on
+  // UDP. Needs iceoryx's RouDi daemon running on the machine (iox-roudi -c deploy/roudi.toml):
+  // Participant::Create waits up to 5 s for it, then fails with Unavailable. Cannot be combined
+  // with security_dir (samples in shared memory bypass DDS Security's encryption and access
+  // control).
+  bool shared_memory = false;
 
   bool IsValid(std::string* why) const;
   // The configuration string handed to dds_create_domain, following the rules above; with a
-  // security_dir, followed by the Security element naming its files (SecurityConfig).
+  // security_dir, followed by the Security element naming its files (SecurityConfig); with
+  // shared_memory, followed by SharedMemoryConfig().
   std::string ResolvedConfig() const;
 };
+
+// The Cyclone configuration fragment that turns the shared-memory transport on (DdsOptions::
+// shared_memory). Merged after the main configuration.
+const char* SharedMemoryConfig();
+
+// iceoryx's RouDi daemon answers on its socket (`socket_path`, iceoryx's /tmp/roudi by
+// default): OK, or Unavailable saying how to start it. Cyclone itself would wait for RouDi
+// forever.
+Status CheckRoudi(const std::string& socket_path = kRoudiSocket);
 
 // The Cyclone configuration fragment that turns DDS Security on with the identity in `dir`
 // (absolute, checked by CheckSecurityDir): authentication, access control and the cryptography
@@ -96,9 +118,10 @@ std::string SecurityConfig(const std::string& dir);
 // configuration list cannot carry (a comma, quote, '<', '>' or '&').
 Result<std::string> CheckSecurityDir(const std::string& dir, const std::string& what);
 
-// Registers --dds-domain, --dds-config and --dds-security. Call ApplyDdsEnv() after parsing: the
-// domain falls back to the environment variable MAV_DDS_DOMAIN when --dds-domain was not given,
-// the security directory to MAV_DDS_SECURITY, and that directory is checked (CheckSecurityDir).
+// Registers --dds-domain, --dds-config, --dds-security and --dds-shm. Call ApplyDdsEnv() after
+// parsing: the domain falls back to the environment variable MAV_DDS_DOMAIN when --dds-domain was
+// not given, the security directory to MAV_DDS_SECURITY, and that directory is checked
+// (CheckSecurityDir); shared memory is on with MAV_DDS_SHM=1 (0 or unset: off).
 void AddDdsFlags(FlagParser* flags, DdsOptions* options);
 Status ApplyDdsEnv(const FlagParser& flags, DdsOptions* options);
 
@@ -145,6 +168,9 @@ class Entity {
 
   dds_entity_t handle() const { return handle_; }
   bool valid() const { return handle_ > 0; }
+  // A reader or writer whose samples go through shared memory (DdsOptions::shared_memory, and
+  // a QoS Cyclone can carry there); false for other entities and without shared memory.
+  bool UsesSharedMemory() const;
   // Gives up ownership without deleting.
   dds_entity_t Release() { return std::exchange(handle_, 0); }
 

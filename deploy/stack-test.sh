@@ -31,7 +31,8 @@
 # --no-dds-security  the data plane without DDS Security (docker-compose.yml alone)
 # --dds-shm      the data plane in shared memory (deploy/compose.shm.yml: RouDi in a container,
 #                the services in its IPC namespace; implies --no-dds-security). Stage 5 then runs
-#                a listener in shared memory beside the mission instead of the credential checks.
+#                a listener in shared memory beside the mission instead of the credential checks,
+#                and stage 6 SIGKILLs RouDi too: it and every service in its memory must restart.
 # --load-seconds seconds per load run (default 20)
 # --out DIR      reports and logs (default out/stack-test)
 # Environment: MAV_SIM_PORT, MAV_LOCALIZATION_PORT, MAV_MAPPING_PORT, MAV_PLANNING_PORT,
@@ -58,7 +59,7 @@ while [[ $# -gt 0 ]]; do
     --out) out="${2:?--out needs a value}"; shift 2 ;;
     --no-dds-security) dds_security=0; shift ;;
     --dds-shm) dds_shm=1; dds_security=0; shift ;;
-    -h|--help) sed -n '2,42p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,43p' "$0"; exit 0 ;;
     *) echo "stack-test.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
 done
@@ -391,13 +392,38 @@ done
   fail "podman did not restart localization within 30 s of the SIGKILL (restart policy)" localization
 wait_healthy localization 60
 recovered_s="$(awk -v a="$kill_s" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')"
+roudi_note=""
+if [[ $dds_shm -eq 1 ]]; then
+  # RouDi SIGKILLed: podman restarts it, and every service in the old RouDi's memory stops
+  # itself (a process in the new one would get none of its samples) and is restarted into it.
+  in_shm=()
+  declare -A restarts_before=()
+  for s in iox-roudi "${services[@]}"; do
+    c="${project}_${s}_1"
+    [[ $s == iox-roudi ]] || podman logs "$c" 2>&1 | grep -q "shared memory on" || continue
+    in_shm+=("$s")
+    restarts_before[$s]="$(podman inspect -f '{{.RestartCount}}' "$c")"
+  done
+  kill -KILL "$(podman inspect -f '{{.State.Pid}}' "${project}_iox-roudi_1")"
+  for s in "${in_shm[@]}"; do
+    c="${project}_${s}_1"
+    for _ in $(seq 300); do
+      [[ "$(podman inspect -f '{{.RestartCount}}' "$c")" -gt "${restarts_before[$s]}" ]] && break
+      sleep 0.1
+    done
+    [[ "$(podman inspect -f '{{.RestartCount}}' "$c")" -gt "${restarts_before[$s]}" ]] ||
+      fail "$s was not restarted within 30 s of RouDi's SIGKILL" "$s"
+  done
+  for s in iox-roudi "${services[@]}"; do wait_healthy "$s" 60; done
+  roudi_note="; RouDi SIGKILLed: it and the services in its memory (${in_shm[*]:1}) restarted"
+fi
 "$bin/mavctl" mission run --mission missions/room_survey.yaml --seed 2 --pose-source vo \
   --out "$out/mission-2" --json "$out/mission-2.json" \
   --simulator "127.0.0.1:$MAV_SIM_PORT" --localization "127.0.0.1:$MAV_LOCALIZATION_PORT" \
   --planning "127.0.0.1:$MAV_PLANNING_PORT" --control "127.0.0.1:$MAV_CONTROL_PORT" \
   > "$out/logs/mission-2.log" 2>&1 ||
   { tail -20 "$out/logs/mission-2.log" >&2; fail "the mission after the restart did not complete (log: $out/logs/mission-2.log)"; }
-end "restarted by podman's policy, healthy after ${recovered_s} s; $(mission_summary "$out/mission-2.json")"
+end "restarted by podman's policy, healthy after ${recovered_s} s$roudi_note; $(mission_summary "$out/mission-2.json")"
 
 [[ $smoke -eq 1 ]] && exit 0
 

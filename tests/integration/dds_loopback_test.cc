@@ -158,11 +158,28 @@ int Mavctl(std::vector<std::string> args, std::string* output = nullptr) {
   return code.value_or(-1);
 }
 
+// Starts iceoryx's RouDi with deploy/roudi.toml and waits until it answers.
+void StartRoudi(const std::string& log, std::unique_ptr<Child>* roudi) {
+  const std::string exe = "/usr/bin/iox-roudi";
+  ASSERT_EQ(::access(exe.c_str(), X_OK), 0)
+      << exe << " is missing: install Debian's iceoryx (deploy/setup.sh does)";
+  *roudi = std::make_unique<Child>(
+      std::vector<std::string>{exe, "-c", mav::testing::SourceDir() + "/deploy/roudi.toml"}, log);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!transport::CheckRoudi().ok() && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_TRUE(transport::CheckRoudi().ok()) << "iox-roudi did not come up; see " << log;
+}
+
 // Cyclone's shared-memory transport (--dds-shm): the mav-simulator binary streams room-easy as
 // fast as its subscriber takes it, and the frames reach `mavctl listen --dds-shm` in another
 // process through iceoryx (its reader says so), intact and in order. Uses the machine's RouDi if
 // one answers, else starts one with deploy/roudi.toml and stops it at the end. This process never
 // joins shared memory itself: a RouDi that stops terminates every process registered with it.
+// With a RouDi of its own, the test then SIGKILLs it and starts another: the simulator, whose
+// shared memory is the old RouDi's, must notice and stop by itself (its restart policy would
+// bring it back in the new one's).
 TEST(DdsLoopbackTest, SharedMemoryCarriesEveryStereoFrameToAnotherProcess) {
   constexpr int kFrames = 40;
   std::system(("mkdir -p " + mav::testing::BinaryDir() + "/Testing").c_str());
@@ -170,17 +187,7 @@ TEST(DdsLoopbackTest, SharedMemoryCarriesEveryStereoFrameToAnotherProcess) {
   const std::string pid = std::to_string(::getpid());
   std::unique_ptr<Child> roudi;
   if (!transport::CheckRoudi().ok()) {
-    const std::string exe = "/usr/bin/iox-roudi";
-    ASSERT_EQ(::access(exe.c_str(), X_OK), 0)
-        << exe << " is missing: install Debian's iceoryx (deploy/setup.sh does)";
-    roudi = std::make_unique<Child>(
-        std::vector<std::string>{exe, "-c", mav::testing::SourceDir() + "/deploy/roudi.toml"},
-        logs + "iox-roudi-" + pid + ".log");
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (!transport::CheckRoudi().ok() && std::chrono::steady_clock::now() < deadline) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    }
-    ASSERT_TRUE(transport::CheckRoudi().ok()) << "iox-roudi did not come up; see logs in " << logs;
+    ASSERT_NO_FATAL_FAILURE(StartRoudi(logs + "iox-roudi-" + pid + ".log", &roudi));
   }
   const std::string domain = std::to_string(TestDomain(31));
   const std::string port = std::to_string(FreeTcpPort());
@@ -215,8 +222,21 @@ TEST(DdsLoopbackTest, SharedMemoryCarriesEveryStereoFrameToAnotherProcess) {
     std::string status;
     EXPECT_EQ(Mavctl({"sim", "status", "--port", port}, &status), 0);
     EXPECT_NE(status.find("stereo in shared memory"), std::string::npos) << status;
-    simulator.Signal(SIGTERM);
+    if (roudi != nullptr) {
+      roudi->Signal(SIGKILL);
+      EXPECT_TRUE(roudi->Wait(std::chrono::seconds(10)).has_value());
+      ASSERT_NO_FATAL_FAILURE(StartRoudi(logs + "iox-roudi-2-" + pid + ".log", &roudi));
+    } else {
+      std::printf("(a RouDi this test did not start is running: its restart is not tested)\n");
+      simulator.Signal(SIGTERM);
+    }
     EXPECT_EQ(simulator.Wait(std::chrono::seconds(10)), std::optional<int>(0));
+    std::ifstream sim_log(logs + "mav-simulator-shm-" + pid + ".log");
+    const std::string sim_output((std::istreambuf_iterator<char>(sim_log)),
+                                 std::istreambuf_iterator<char>());
+    if (roudi != nullptr) {
+      EXPECT_NE(sim_output.find("was restarted"), std::string::npos) << sim_output;
+    }
   }
   if (roudi != nullptr) {  // SIGTERM: RouDi removes its shared memory and socket on the way out
     roudi->Signal(SIGTERM);

@@ -1,6 +1,8 @@
 #include "mav/transport/dds.h"
 
+#include <signal.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
 
@@ -353,6 +355,59 @@ Status WaitForRoudi() {
   return status;
 }
 
+// Which RouDi: its socket file's inode and change time (a RouDi started anew makes a new file).
+struct RoudiIdentity {
+  bool present = false;
+  ino_t inode = 0;
+  int64_t ctime_ns = 0;
+  bool operator==(const RoudiIdentity& o) const {
+    return present == o.present && inode == o.inode && ctime_ns == o.ctime_ns;
+  }
+};
+RoudiIdentity CurrentRoudi() {
+  struct stat st {};
+  if (::stat(kRoudiSocket, &st) != 0) return {};
+  return {true, st.st_ino, st.st_ctim.tv_sec * 1'000'000'000LL + st.st_ctim.tv_nsec};
+}
+
+// Watches RouDi for as long as the process lives, from its first shared-memory domain on (a
+// detached thread: it only stats a file, logs and signals). A RouDi that dies leaves the running
+// processes streaming to each other, so that is only logged. A RouDi started anew is fatal to
+// this process: its chunks are in the old RouDi's memory, and a process that joins the new one
+// (a restarted service) matches it but gets none of its samples, silently. So the process asks
+// itself to stop (SIGTERM: a service drains and exits, and a restart policy starts it again,
+// in the new RouDi's memory).
+void WatchRoudi() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    std::thread([first = CurrentRoudi()] {
+      bool gone_logged = false;
+      while (true) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        const RoudiIdentity now = CurrentRoudi();
+        const bool answers = CheckRoudi().ok();
+        if (now == first && answers) continue;
+        if (!now.present || !answers || now == first) {  // gone (or its socket left behind)
+          if (!gone_logged) {
+            MAV_LOG(kWarning) << "iceoryx RouDi at " << kRoudiSocket
+                              << " is gone: the samples in shared memory keep flowing between "
+                                 "the processes already in it; a process started now cannot "
+                                 "join them until every one is restarted with a new RouDi";
+            gone_logged = true;
+          }
+          continue;
+        }
+        MAV_LOG(kError) << "iceoryx RouDi at " << kRoudiSocket
+                        << " was restarted: this process's shared memory is the old RouDi's, and "
+                           "processes in the new one would get none of its samples; stopping "
+                           "(SIGTERM) so that it is started again";
+        ::kill(::getpid(), SIGTERM);
+        return;
+      }
+    }).detach();
+  });
+}
+
 }  // namespace
 
 // One dds_create_domain() per domain id and process, shared by that process's participants and
@@ -388,6 +443,7 @@ Result<Participant> Participant::Create(const DdsOptions& options) {
     if (options.shared_memory) {
       MAV_LOG(kInfo) << "DDS domain " << options.domain << ": shared memory on (iceoryx RouDi at "
                      << kRoudiSocket << ")";
+      WatchRoudi();
     }
     domain = std::make_shared<DomainRef>();
     domain->handle = handle;

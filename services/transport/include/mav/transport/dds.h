@@ -86,7 +86,9 @@ struct DdsOptions {
   // automatic liveliness, no deadline: every stream of ours but `mavctl listen`'s KEEP_ALL) go
   // through iceoryx's shared memory instead of UDP; discovery and the other readers stay on
   // UDP. Needs iceoryx's RouDi daemon running on the machine (iox-roudi -c deploy/roudi.toml):
-  // Participant::Create waits up to 5 s for it, then fails with Unavailable. Cannot be combined
+  // Participant::Create waits up to 5 s for it, then fails with Unavailable. From then on the
+  // process watches RouDi: when a new one replaces it, it logs why and sends itself SIGTERM (its
+  // shared memory is the old RouDi's; docs/services.md, "When RouDi dies"). Cannot be combined
   // with security_dir (samples in shared memory bypass DDS Security's encryption and access
   // control).
   bool shared_memory = false;

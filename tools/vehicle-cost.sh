@@ -5,7 +5,11 @@
 # divided by the mission's simulated time: CPU seconds per second of flight at 20 Hz.
 #
 #   tools/vehicle-cost.sh [--mission missions/room_hover.yaml] [--map truth|online] [--seed 1]
-#                         [--out DIR]
+#                         [--dds-shm] [--out DIR]
+#
+# --dds-shm  the services' data plane in shared memory (MAV_DDS_SHM=1; docs/services.md): starts
+#            iceoryx's RouDi with deploy/roudi.toml when none answers at /tmp/roudi, and stops
+#            it at the end.
 #
 # Prints one markdown row per service and the mission's own report line. Needs build/bin.
 set -euo pipefail
@@ -19,8 +23,9 @@ while [[ $# -gt 0 ]]; do
     --mission) mission="${2:?}"; shift 2 ;;
     --map) map="${2:?}"; shift 2 ;;
     --seed) seed="${2:?}"; shift 2 ;;
+    --dds-shm) export MAV_DDS_SHM=1; shift ;;
     --out) out="${2:?}"; mkdir -p "$out"; shift 2 ;;
-    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
     *) echo "vehicle-cost.sh: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done
@@ -37,6 +42,17 @@ declare -A port=([mav-simulator]=$base [mav-localization]=$((base + 1)) [mav-map
 declare -A pid=()
 cleanup() { for p in "${pid[@]}"; do kill "$p" 2> /dev/null || true; done; wait 2> /dev/null || true; }
 trap cleanup EXIT
+roudi_answers() {
+  python3 -c 'import socket; socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM).connect("/tmp/roudi")' \
+    2> /dev/null
+}
+if [[ "${MAV_DDS_SHM:-0}" == 1 ]] && ! roudi_answers; then
+  command -v iox-roudi > /dev/null || { echo "vehicle-cost.sh: iox-roudi not found (Debian's iceoryx)" >&2; exit 1; }
+  iox-roudi -c "$repo/deploy/roudi.toml" > "$out/iox-roudi.log" 2>&1 &
+  pid[iox-roudi]=$!
+  for _ in $(seq 50); do roudi_answers && break; sleep 0.1; done
+  roudi_answers || { echo "vehicle-cost.sh: iox-roudi did not come up (log: $out/iox-roudi.log)" >&2; exit 1; }
+fi
 for s in "${services[@]}"; do
   "$bin/$s" --port "${port[$s]}" --dds-domain "$domain" > "$out/$s.log" 2>&1 &
   pid[$s]=$!
@@ -58,7 +74,7 @@ wall=$(awk -v a="$(date +%s.%N)" -v b="$start" 'BEGIN { printf "%.1f", a - b }')
 [[ "$map" == online ]] && "$bin/mavctl" map status --port "${port[mav-mapping]}" > "$out/map-status.txt" 2>&1
 sim_s=$(python3 -c "import json,sys; print(json.load(open('$out/report.json'))['sim_time_s'])" 2> /dev/null ||
         sed -n 's/.*in \([0-9.]*\) s simulated.*/\1/p' "$out/mission.txt" | head -1)
-echo "mission $(basename "$mission"), map $map, seed $seed: ${sim_s} s simulated in ${wall} s wall ($(nproc) cores)"
+echo "mission $(basename "$mission"), map $map, seed $seed, data plane $([[ "${MAV_DDS_SHM:-0}" == 1 ]] && echo "in shared memory" || echo "over UDP"): ${sim_s} s simulated in ${wall} s wall ($(nproc) cores)"
 echo
 echo "| service | CPU s | CPU s per flight s (20 Hz) | ms per frame |"
 echo "|---|---:|---:|---:|"

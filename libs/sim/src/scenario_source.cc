@@ -1,5 +1,6 @@
 #include "mav/sim/scenario_source.h"
 
+#include <pthread.h>
 #include <sched.h>
 
 #include <algorithm>
@@ -258,6 +259,9 @@ Result<RenderedFrame> FramePrefetcher::Get(int64_t index) {
 }
 
 void FramePrefetcher::Work(Priority priority) {
+  // Named, so that profiles and `top -H` tell it from the thread that started it (a gRPC
+  // handler's name is otherwise inherited).
+  pthread_setname_np(pthread_self(), "render");
   if (priority == Priority::kIdle) {
     // Lowering a thread's own policy needs no privilege; 0 is the calling thread.
     const sched_param param{};

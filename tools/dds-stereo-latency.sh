@@ -52,16 +52,10 @@ pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2> /dev/null || true; done; wait 2> /dev/null || true; }
 trap cleanup EXIT
 
-roudi_answers() {
-  python3 -c 'import socket; socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM).connect("/tmp/roudi")' \
-    2> /dev/null
-}
-if [[ ",$settings," == *,shm,* ]] && ! roudi_answers; then
-  command -v iox-roudi > /dev/null || { echo "dds-stereo-latency.sh: iox-roudi not found (Debian's iceoryx)" >&2; exit 1; }
-  iox-roudi -c "$repo/deploy/roudi.toml" > "$out/roudi.log" 2>&1 &
-  pids+=($!)
-  for _ in $(seq 50); do roudi_answers && break; sleep 0.1; done
-  roudi_answers || { echo "dds-stereo-latency.sh: iox-roudi did not come up (log: $out/roudi.log)" >&2; exit 1; }
+source "$repo/tools/roudi.sh"
+if [[ ",$settings," == *,shm,* ]]; then
+  start_roudi_unless_running dds-stereo-latency.sh "$out/roudi.log"
+  [[ -n "$roudi_pid" ]] && pids+=("$roudi_pid")
 fi
 
 start_simulator() {  # $1: render priority, $2: MAV_DDS_SHM (0 or 1)

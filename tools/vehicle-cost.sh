@@ -42,16 +42,10 @@ declare -A port=([mav-simulator]=$base [mav-localization]=$((base + 1)) [mav-map
 declare -A pid=()
 cleanup() { for p in "${pid[@]}"; do kill "$p" 2> /dev/null || true; done; wait 2> /dev/null || true; }
 trap cleanup EXIT
-roudi_answers() {
-  python3 -c 'import socket; socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM).connect("/tmp/roudi")' \
-    2> /dev/null
-}
-if [[ "${MAV_DDS_SHM:-0}" == 1 ]] && ! roudi_answers; then
-  command -v iox-roudi > /dev/null || { echo "vehicle-cost.sh: iox-roudi not found (Debian's iceoryx)" >&2; exit 1; }
-  iox-roudi -c "$repo/deploy/roudi.toml" > "$out/iox-roudi.log" 2>&1 &
-  pid[iox-roudi]=$!
-  for _ in $(seq 50); do roudi_answers && break; sleep 0.1; done
-  roudi_answers || { echo "vehicle-cost.sh: iox-roudi did not come up (log: $out/iox-roudi.log)" >&2; exit 1; }
+source "$repo/tools/roudi.sh"
+if [[ "${MAV_DDS_SHM:-0}" == 1 ]]; then
+  start_roudi_unless_running vehicle-cost.sh "$out/iox-roudi.log"
+  [[ -n "$roudi_pid" ]] && pid[iox-roudi]=$roudi_pid
 fi
 for s in "${services[@]}"; do
   "$bin/$s" --port "${port[$s]}" --dds-domain "$domain" > "$out/$s.log" 2>&1 &

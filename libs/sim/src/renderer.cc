@@ -9,6 +9,10 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define MAV_SIM_HAVE_AVX2 1
+#endif
 
 #include <opencv2/core.hpp>
 
@@ -222,6 +226,188 @@ inline F4 Bilinear4(const float* img, const I4& idx, size_t stride, F4 ax, F4 ay
   return top + ay * (bottom - top);
 }
 
+#define MAV_SIM_INLINE inline __attribute__((always_inline))
+
+// What the blur kernels need of one BlurByReprojection call (renderer_lanes.inc).
+struct BlurFrame {
+  const float* sharp;
+  const float* range;
+  const float *rx, *ry, *rz;  // the ray LUT
+  size_t n;                   // pixels
+  int w, h;
+  float ro[9], to[3], rc[9], tc[3];  // open and close camera from the mid camera
+  float fx, fy, cx, cy, k1, k2, p1, p2;
+  int max_samples;
+};
+constexpr float kBlurMargin = 0.01f;  // pixels: keeps stepped sample positions inside
+
+// The kernels 4 lanes wide (SSE2: the x86-64 baseline).
+namespace lanes4 {
+typedef F4 V;
+typedef I4 VI;
+constexpr int kLanes = 4;
+MAV_SIM_INLINE V Splat(float x) { return ::mav::sim::Splat(x); }
+MAV_SIM_INLINE V Load(const float* p) { return Load4(p); }
+MAV_SIM_INLINE V Select(VI m, V a, V b) { return ::mav::sim::Select(m, a, b); }
+MAV_SIM_INLINE V Min(V a, V b) { return Min4(a, b); }
+MAV_SIM_INLINE V Max(V a, V b) { return Max4(a, b); }
+MAV_SIM_INLINE V Abs(V a) { return Abs4(a); }
+MAV_SIM_INLINE V Sqrt(V a) { return Sqrt4(a); }
+MAV_SIM_INLINE VI Trunc(V a) { return TruncToInt4(a); }
+MAV_SIM_INLINE V ToFloat(VI a) { return ToFloat4(a); }
+MAV_SIM_INLINE bool All(VI m) { return All4(m); }
+MAV_SIM_INLINE float HMax(V a) { return HMax4(a); }
+MAV_SIM_INLINE V LaneIndex() { return V{0, 1, 2, 3}; }
+MAV_SIM_INLINE V Bilinear(const float* img, const VI& idx, size_t stride, V ax, V ay) {
+  return Bilinear4(img, idx, stride, ax, ay);
+}
+#include "renderer_lanes.inc"
+}  // namespace lanes4
+
+#if defined(MAV_SIM_HAVE_AVX2)
+// The kernels 8 lanes wide, AVX2 (no FMA: the same roundings as the 4 lanes), compiled for
+// AVX2 here and run only where the CPU has it (CpuHasAvx2).
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+namespace lanes8 {
+typedef float V __attribute__((vector_size(32)));
+typedef int32_t VI __attribute__((vector_size(32)));
+constexpr int kLanes = 8;
+MAV_SIM_INLINE V Splat(float x) { return V{x, x, x, x, x, x, x, x}; }
+MAV_SIM_INLINE V Load(const float* p) {
+  V v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+MAV_SIM_INLINE void Store(float* p, V v) { std::memcpy(p, &v, sizeof(v)); }
+MAV_SIM_INLINE V Select(VI m, V a, V b) { return (V)(((VI)a & m) | ((VI)b & ~m)); }
+MAV_SIM_INLINE V Min(V a, V b) { return (V)_mm256_min_ps((__m256)a, (__m256)b); }
+MAV_SIM_INLINE V Max(V a, V b) { return (V)_mm256_max_ps((__m256)a, (__m256)b); }
+MAV_SIM_INLINE V Abs(V a) { return (V)((VI)a & 0x7fffffff); }
+MAV_SIM_INLINE V Sqrt(V a) { return (V)_mm256_sqrt_ps((__m256)a); }
+MAV_SIM_INLINE VI Trunc(V a) { return __builtin_convertvector(a, VI); }
+MAV_SIM_INLINE V ToFloat(VI a) { return __builtin_convertvector(a, V); }
+MAV_SIM_INLINE int Mask(VI m) { return _mm256_movemask_ps((__m256)m); }
+MAV_SIM_INLINE bool All(VI m) { return Mask(m) == 0xff; }
+MAV_SIM_INLINE float HMax(V a) {
+  const __m128 m =
+      _mm_max_ps(_mm256_castps256_ps128((__m256)a), _mm256_extractf128_ps((__m256)a, 1));
+  return std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
+}
+MAV_SIM_INLINE V LaneIndex() { return V{0, 1, 2, 3, 4, 5, 6, 7}; }
+MAV_SIM_INLINE V Bilinear(const float* img, const VI& idx, size_t stride, V ax, V ay) {
+  V tl, tr, bl, br;
+  const int i0 = idx[0];
+  if (All(idx == i0 + VI{0, 1, 2, 3, 4, 5, 6, 7})) {  // 8 neighbours in a row: the common case
+    const float* p = img + i0;
+    tl = Load(p);
+    tr = Load(p + 1);
+    bl = Load(p + stride);
+    br = Load(p + stride + 1);
+  } else {
+    const __m256i vi = (__m256i)idx;
+    tl = (V)_mm256_i32gather_ps(img, vi, 4);
+    tr = (V)_mm256_i32gather_ps(img + 1, vi, 4);
+    bl = (V)_mm256_i32gather_ps(img + stride, vi, 4);
+    br = (V)_mm256_i32gather_ps(img + stride + 1, vi, 4);
+  }
+  const V top = tl + ax * (tr - tl);
+  const V bottom = bl + ax * (br - bl);
+  return top + ay * (bottom - top);
+}
+#include "renderer_lanes.inc"
+
+// Pixels u .. u + 7 of row v: 8 lanes wherever the result is the 4-lane kernel's, which
+// decides per group of 4 whether its segments stay inside the image.
+MAV_SIM_INLINE V BlurLanesAs4(const BlurFrame& b, const BlurConsts& c, const lanes4::BlurConsts& c4,
+                              int v, int u) {
+  Segments s;
+  if (!SegmentsOf(b, c, v, u, &s)) return s.sharp;
+  // Inside over the 8 lanes' longest segment: inside over each 4's (their segments are parts).
+  if (All(SegmentsInside(c, s, Splat(static_cast<float>(s.n_max - 1))))) {
+    return IntegrateInside(b, c, s);
+  }
+  // Each 4's own decision; groups of 4 that are still take `sharp` either way.
+  const __m128 lo = _mm256_castps256_ps128((__m256)s.count);
+  const __m128 hi = _mm256_extractf128_ps((__m256)s.count, 1);
+  const float last_lo = std::max(std::max(lo[0], lo[1]), std::max(lo[2], lo[3])) - 1;
+  const float last_hi = std::max(std::max(hi[0], hi[1]), std::max(hi[2], hi[3])) - 1;
+  const V last = V{last_lo, last_lo, last_lo, last_lo, last_hi, last_hi, last_hi, last_hi};
+  const int inside = Mask(SegmentsInside(c, s, last)), still = Mask(s.still);
+  const bool lo_inside = (still & 0x0f) != 0x0f && (inside & 0x0f) == 0x0f;
+  const bool hi_inside = (still & 0xf0) != 0xf0 && (inside & 0xf0) == 0xf0;
+  if (!lo_inside && !hi_inside) return IntegrateClamped(b, c, s);
+  const lanes4::V a = lanes4::BlurLanes(b, c4, v, u), d = lanes4::BlurLanes(b, c4, v, u + 4);
+  return V{a[0], a[1], a[2], a[3], d[0], d[1], d[2], d[3]};
+}
+
+void BlurRows(const BlurFrame& b, float* out) {
+  const BlurConsts c = MakeBlurConsts(b);
+  const lanes4::BlurConsts c4 = lanes4::MakeBlurConsts(b);
+  for (int v = 0; v < b.h; ++v) {
+    const size_t row = static_cast<size_t>(v) * b.w;
+    int u = 0;
+    for (; u + 8 <= b.w; u += 8) Store(out + row + u, BlurLanesAs4(b, c, c4, v, u));
+    for (; u < b.w; u += 4) {
+      const lanes4::V r = lanes4::BlurLanes(b, c4, v, u);
+      for (int j = 0; j < 4 && u + j < b.w; ++j) out[row + u + j] = r[j];
+    }
+  }
+  _mm256_zeroupper();
+}
+
+// FormImage, 32 pixels per step.
+void FormRows(const float* in, int width, int height, const lanes4::FormConsts& f4,
+              cv::Mat* image) {
+  const FormConsts f{Splat(f4.scale[0]), Splat(f4.noise_scale[0]), f4.key_lo, f4.key_hi};
+  for (int v = 0; v < height; ++v) {
+    uint8_t* row = image->ptr<uint8_t>(v);
+    const size_t row_start = static_cast<size_t>(v) * width;
+    int u = 0;
+    for (; u + 32 <= width; u += 32) {
+      const size_t i = row_start + u;
+      const VI q0 = FormLanes(f, Load(in + i), i), q1 = FormLanes(f, Load(in + i + 8), i + 8);
+      const VI q2 = FormLanes(f, Load(in + i + 16), i + 16);
+      const VI q3 = FormLanes(f, Load(in + i + 24), i + 24);
+      // Values are in [0, 255]: saturating packs are exact. The packs work per 128-bit half;
+      // the permutation puts the 4-pixel pieces back in order.
+      const __m256i lo = _mm256_packs_epi32((__m256i)q0, (__m256i)q1);
+      const __m256i hi = _mm256_packs_epi32((__m256i)q2, (__m256i)q3);
+      const __m256i bytes = _mm256_permutevar8x32_epi32(_mm256_packus_epi16(lo, hi),
+                                                        _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + u), bytes);
+    }
+    for (; u < width; u += 4) {
+      const size_t i = row_start + u;
+      F4 r = ::mav::sim::Splat(0.0f);
+      for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
+      const I4 q = lanes4::FormLanes(f4, r, i);
+      for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
+    }
+  }
+  _mm256_zeroupper();
+}
+}  // namespace lanes8
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+#endif  // MAV_SIM_HAVE_AVX2
+
+bool CpuHasAvx2() {
+#if defined(MAV_SIM_HAVE_AVX2)
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+#else
+  return false;
+#endif
+}
+
 struct Cone {
   float ax = 0, ay = 0, az = 1;
   float cos_half = 1, sin_half = 0;
@@ -353,6 +539,7 @@ struct CameraRenderer::Impl {
   std::vector<Cone> tile_cones, super_cones;
   std::vector<Proxy> proxies;
   std::vector<const Texture*> textures;  // per material
+  bool avx2 = false;                     // the 8-lane kernels (CpuHasAvx2())
 
   void Render(const geometry::SE3& T_world_cam, float* radiance, float* range) const;
 
@@ -390,6 +577,7 @@ CameraRenderer::CameraRenderer(std::shared_ptr<const World> world,
   MAV_CHECK(camera.IsValid(&why)) << why;
   s.world = std::move(world);
   s.camera = camera;
+  s.avx2 = CpuHasAvx2();
   s.width = camera.width;
   s.height = camera.height;
   const size_t n = static_cast<size_t>(s.width) * s.height;
@@ -464,6 +652,8 @@ CameraRenderer::CameraRenderer(CameraRenderer&&) noexcept = default;
 CameraRenderer& CameraRenderer::operator=(CameraRenderer&&) noexcept = default;
 
 const camera::PinholeRadTan& CameraRenderer::camera() const { return impl_->camera; }
+void CameraRenderer::UseAvx2(bool on) { impl_->avx2 = on && CpuHasAvx2(); }
+bool CameraRenderer::UsesAvx2() const { return impl_->avx2; }
 int CameraRenderer::width() const { return impl_->width; }
 int CameraRenderer::height() const { return impl_->height; }
 
@@ -504,151 +694,51 @@ void CameraRenderer::BlurByReprojection(const std::vector<float>& sharp,
   const int w = s.width, h = s.height;
   const size_t n = static_cast<size_t>(w) * h;
   MAV_CHECK(sharp.size() == n && range.size() == n && blurred != nullptr && max_samples >= 1);
+  MAV_CHECK(w >= 2 && h >= 2);
   blurred->resize(n);
+  BlurFrame b;
+  b.sharp = sharp.data();
+  b.range = range.data();
+  b.rx = s.rx.data();
+  b.ry = s.ry.data();
+  b.rz = s.rz.data();
+  b.n = n;
+  b.w = w;
+  b.h = h;
+  b.max_samples = max_samples;
   const geometry::SE3 T_open_mid = T_world_cam_open.Inverse() * T_world_cam_mid;
   const geometry::SE3 T_close_mid = T_world_cam_close.Inverse() * T_world_cam_mid;
-  float ro[9], to[3], rc[9], tc[3];
-  {
-    const Eigen::Matrix3d a = T_open_mid.RotationMatrix(), b = T_close_mid.RotationMatrix();
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) {
-        ro[3 * r + c] = static_cast<float>(a(r, c));
-        rc[3 * r + c] = static_cast<float>(b(r, c));
-      }
-      to[r] = static_cast<float>(T_open_mid.Translation()[r]);
-      tc[r] = static_cast<float>(T_close_mid.Translation()[r]);
+  const Eigen::Matrix3d ro = T_open_mid.RotationMatrix(), rc = T_close_mid.RotationMatrix();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) {
+      b.ro[3 * r + c] = static_cast<float>(ro(r, c));
+      b.rc[3 * r + c] = static_cast<float>(rc(r, c));
     }
+    b.to[r] = static_cast<float>(T_open_mid.Translation()[r]);
+    b.tc[r] = static_cast<float>(T_close_mid.Translation()[r]);
   }
   const camera::PinholeRadTan& cam = s.camera;
-  const F4 fx = Splat(static_cast<float>(cam.fx)), fy = Splat(static_cast<float>(cam.fy));
-  const F4 cx = Splat(static_cast<float>(cam.cx)), cy = Splat(static_cast<float>(cam.cy));
-  const F4 k1 = Splat(static_cast<float>(cam.k1)), k2 = Splat(static_cast<float>(cam.k2));
-  const F4 p1 = Splat(static_cast<float>(cam.p1)), p2 = Splat(static_cast<float>(cam.p2));
-  const F4 one = Splat(1.0f), two = Splat(2.0f);
-  // Camera model in float, 4 points at a time (same equations as PinholeRadTan::Project).
-  auto project = [&](F4 X, F4 Y, F4 Z, F4* u, F4* v) {
-    const F4 iz = one / Z;
-    const F4 x = X * iz, y = Y * iz;
-    const F4 r2 = x * x + y * y;
-    const F4 radial = one + k1 * r2 + k2 * r2 * r2;
-    const F4 xy2 = two * x * y;
-    const F4 xd = x * radial + p1 * xy2 + p2 * (r2 + two * x * x);
-    const F4 yd = y * radial + p1 * (r2 + two * y * y) + p2 * xy2;
-    *u = fx * xd + cx;
-    *v = fy * yd + cy;
-  };
-  const F4 far = Splat(1e4f);  // sky: a point far away
-  const F4 min_z = Splat(1e-3f), still = Splat(0.05f), zero = Splat(0.0f), half = Splat(0.5f);
-  const F4 max_n = Splat(static_cast<float>(max_samples));
-  const F4 u_max = Splat(static_cast<float>(w - 1)), v_max = Splat(static_cast<float>(h - 1));
-  const F4 margin = Splat(0.01f), u_inner = u_max - margin, v_inner = v_max - margin;
-  const F4 u_cell = Splat(static_cast<float>(std::max(w - 2, 0)));
-  const F4 v_cell = Splat(static_cast<float>(std::max(h - 2, 0)));
-  const F4 stride = Splat(static_cast<float>(w));
-  const F4 lane = F4{0, 1, 2, 3};
-  // The motions' coefficients splatted once (the loop body needs more registers than there are).
-  F4 RO[9], RC[9], TO[3], TC[3];
-  for (int k = 0; k < 9; ++k) {
-    RO[k] = Splat(ro[k]);
-    RC[k] = Splat(rc[k]);
-  }
-  for (int k = 0; k < 3; ++k) {
-    TO[k] = Splat(to[k]);
-    TC[k] = Splat(tc[k]);
-  }
-  const float* img = sharp.data();
-  // 4 values from i on, zero past the end of the image.
-  auto load = [n](const float* p, size_t i) {
-    if (i + 4 <= n) return Load4(p + i);
-    F4 r = Splat(0.0f);
-    for (size_t j = 0; i + j < n; ++j) r[j] = p[i + j];
-    return r;
-  };
-  MAV_CHECK(w >= 2 && h >= 2);
+  b.fx = static_cast<float>(cam.fx);
+  b.fy = static_cast<float>(cam.fy);
+  b.cx = static_cast<float>(cam.cx);
+  b.cy = static_cast<float>(cam.cy);
+  b.k1 = static_cast<float>(cam.k1);
+  b.k2 = static_cast<float>(cam.k2);
+  b.p1 = static_cast<float>(cam.p1);
+  b.p2 = static_cast<float>(cam.p2);
+  float* out = blurred->data();
+#if defined(MAV_SIM_HAVE_AVX2)
+  if (s.avx2) return lanes8::BlurRows(b, out);
+#endif
+  const lanes4::BlurConsts c = lanes4::MakeBlurConsts(b);
   for (int v = 0; v < h; ++v) {
-    const size_t row = static_cast<size_t>(v) * w;
-    const F4 vf = Splat(static_cast<float>(v));
     for (int u = 0; u < w; u += 4) {
-      const size_t i = row + u;
-      // Surface point of each pixel (mid-shutter camera), in the open and close cameras.
-      const F4 t = Min4(load(range.data(), i), far);
-      const F4 X = load(s.rx.data(), i) * t, Y = load(s.ry.data(), i) * t,
-               Z = load(s.rz.data(), i) * t;
-      const F4 Xo = RO[0] * X + RO[1] * Y + RO[2] * Z + TO[0];
-      const F4 Yo = RO[3] * X + RO[4] * Y + RO[5] * Z + TO[1];
-      const F4 Zo = RO[6] * X + RO[7] * Y + RO[8] * Z + TO[2];
-      const F4 Xc = RC[0] * X + RC[1] * Y + RC[2] * Z + TC[0];
-      const F4 Yc = RC[3] * X + RC[4] * Y + RC[5] * Z + TC[1];
-      const F4 Zc = RC[6] * X + RC[7] * Y + RC[8] * Z + TC[2];
-      const I4 ok = (Z > min_z) & (Zo > min_z) & (Zc > min_z);
-      F4 uo, vo, uc, vc;
-      project(Xo, Yo, Select(ok, Zo, one), &uo, &vo);
-      project(Xc, Yc, Select(ok, Zc, one), &uc, &vc);
-      // At shutter time tau the pixel sees the point that sits at p - flow(tau) mid-shutter
-      // (flow from open to close: a + tau d).
-      const F4 um = Splat(static_cast<float>(u)) + lane;
-      const F4 ao = Select(ok, uo - um, zero), bo = Select(ok, vo - vf, zero);
-      const F4 du = Select(ok, uc - um, zero) - ao, dv = Select(ok, vc - vf, zero) - bo;
-      const F4 length = Sqrt4(du * du + dv * dv);
-      const I4 is_still =
-          (length < still) & (Abs4(two * ao + du) < still) & (Abs4(two * bo + dv) < still);
-      const F4 sharp4 = load(img, i);
-      F4 out = sharp4;
-      if (!All4(is_still)) {
-        // samples = clamp(floor(length) + 1, 1, max_samples), one per pixel of motion.
-        const F4 count = Max4(Min4(ToFloat4(TruncToInt4(Min4(length, max_n))) + one, max_n), one);
-        const F4 inv = one / count;
-        // Sample k at tau = (k + 0.5) / count: position (u, v) - (a + tau d).
-        const F4 su = -du * inv, sv = -dv * inv;
-        const F4 pu = um - ao + half * su, pv = vf - bo + half * sv;
-        const int n_max = static_cast<int>(HMax4(count));
-        F4 sum = zero;
-        // All samples of the 4 segments inside the image: no clamping.
-        const F4 last = Splat(static_cast<float>(n_max - 1));
-        const F4 qu = pu + last * su, qv = pv + last * sv;
-        // (A margin keeps the incrementally stepped positions inside too.)
-        if (All4((Min4(pu, qu) >= margin) & (Max4(pu, qu) < u_inner) & (Min4(pv, qv) >= margin) &
-                 (Max4(pv, qv) < v_inner))) {
-          auto integrate = [&](auto all_lanes_active) {
-            F4 x = pu, y = pv;
-            for (int k = 0; k < n_max; ++k) {
-              const F4 ix = ToFloat4(TruncToInt4(x)), iy = ToFloat4(TruncToInt4(y));
-              const I4 idx = TruncToInt4(iy * stride + ix);
-              const F4 value = Bilinear4(img, idx, static_cast<size_t>(w), x - ix, y - iy);
-              if constexpr (all_lanes_active) {
-                sum += value;
-              } else {
-                sum += Select(Splat(static_cast<float>(k)) < count, value, zero);
-              }
-              x += su;
-              y += sv;
-            }
-          };
-          if (All4(count == Splat(count[0]))) {
-            integrate(std::true_type{});
-          } else {
-            integrate(std::false_type{});
-          }
-          out = Select(is_still, sharp4, sum * inv);
-        } else {
-          for (int k = 0; k < n_max; ++k) {
-            const F4 kf = Splat(static_cast<float>(k));
-            // Clamped to the image like a border-replicated image.
-            const F4 x = Max4(Min4(pu + kf * su, u_max), zero);
-            const F4 y = Max4(Min4(pv + kf * sv, v_max), zero);
-            const F4 ix = Min4(ToFloat4(TruncToInt4(x)), u_cell);
-            const F4 iy = Min4(ToFloat4(TruncToInt4(y)), v_cell);
-            const I4 idx = TruncToInt4(iy * stride + ix);  // exact: < 2^24 texels
-            const F4 value = Bilinear4(img, idx, static_cast<size_t>(w), x - ix, y - iy);
-            sum += Select(kf < count, value, zero);
-          }
-          out = Select(is_still, sharp4, sum * inv);
-        }
-      }
+      const size_t i = static_cast<size_t>(v) * w + u;
+      const F4 r = lanes4::BlurLanes(b, c, v, u);
       if (u + 4 <= w) {
-        Store4(blurred->data() + i, out);
+        Store4(out + i, r);
       } else {
-        for (int j = 0; u + j < w; ++j) (*blurred)[i + j] = out[j];
+        for (int j = 0; u + j < w; ++j) out[i + j] = r[j];
       }
     }
   }
@@ -980,40 +1070,25 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
 }
 
 void FormImage(const std::vector<float>& radiance, int width, int height, double gain,
-               double noise_sigma, uint64_t noise_key, cv::Mat* image) {
+               double noise_sigma, uint64_t noise_key, cv::Mat* image, bool use_avx2) {
   MAV_CHECK(image != nullptr);
   MAV_CHECK(radiance.size() == static_cast<size_t>(width) * height);
   image->create(height, width, CV_8UC1);
-  typedef uint32_t U4 __attribute__((vector_size(16)));
-  const F4 scale = Splat(static_cast<float>(255.0 * gain));
+  const float scale = static_cast<float>(255.0 * gain);
   // The sum of four uniform bytes has variance 4 (256^2 - 1) / 12 = 21845.
-  const F4 noise_scale =
-      Splat(noise_sigma > 0 ? static_cast<float>(noise_sigma / std::sqrt(21845.0)) : 0.0f);
-  const F4 noise_offset = Splat(4 * 127.5f);
+  const float noise_scale =
+      noise_sigma > 0 ? static_cast<float>(noise_sigma / std::sqrt(21845.0)) : 0.0f;
   const uint64_t key = internal::Mix64(noise_key);
-  const U4 key_lo = U4{0, 0, 0, 0} + static_cast<uint32_t>(key);
-  const U4 key_hi = U4{0, 0, 0, 0} + static_cast<uint32_t>(key >> 32);
-  const U4 lane = U4{0, 1, 2, 3};
-  const U4 low_bytes = U4{0x00ff00ff, 0x00ff00ff, 0x00ff00ff, 0x00ff00ff};
-  // 8-bit values of the 4 pixels from index i on.
-  auto form4 = [&](F4 r, size_t i) {
-    F4 value = scale * r;
-    // Counter-based noise: a 32-bit hash (Wellons' "lowbias32" finaliser) of the pixel index
-    // and key, its four bytes summed (Irwin-Hall, n = 4) and scaled to unit variance.
-    U4 h = (static_cast<uint32_t>(i) + lane) * 0x9e3779b1u + key_lo;
-    h ^= key_hi;
-    h ^= h >> 16;
-    h *= 0x7feb352du;
-    h ^= h >> 15;
-    h *= 0x846ca68bu;
-    h ^= h >> 16;
-    const U4 pairs = (h & low_bytes) + ((h >> 8) & low_bytes);
-    const U4 sum = (pairs & 0xffffu) + (pairs >> 16);
-    value += noise_scale * (ToFloat4((I4)sum) - noise_offset);
-    // Round half up after clamping (values are non-negative there).
-    return TruncToInt4(Max4(Min4(value, Splat(255.0f)), Splat(0.0f)) + Splat(0.5f));
-  };
+  const uint32_t key_lo = static_cast<uint32_t>(key), key_hi = static_cast<uint32_t>(key >> 32);
+  const lanes4::FormConsts f4{Splat(scale), Splat(noise_scale), key_lo, key_hi};
   const float* in = radiance.data();
+#if defined(MAV_SIM_HAVE_AVX2)
+  if (use_avx2 && CpuHasAvx2()) {
+    return lanes8::FormRows(in, width, height, f4, image);
+  }
+#else
+  (void)use_avx2;
+#endif
   for (int v = 0; v < height; ++v) {
     uint8_t* row = image->ptr<uint8_t>(v);
     const size_t row_start = static_cast<size_t>(v) * width;
@@ -1021,8 +1096,10 @@ void FormImage(const std::vector<float>& radiance, int width, int height, double
 #if defined(__SSE2__)
     for (; u + 16 <= width; u += 16) {
       const size_t i = row_start + u;
-      const I4 q0 = form4(Load4(in + i), i), q1 = form4(Load4(in + i + 4), i + 4);
-      const I4 q2 = form4(Load4(in + i + 8), i + 8), q3 = form4(Load4(in + i + 12), i + 12);
+      const I4 q0 = lanes4::FormLanes(f4, Load4(in + i), i);
+      const I4 q1 = lanes4::FormLanes(f4, Load4(in + i + 4), i + 4);
+      const I4 q2 = lanes4::FormLanes(f4, Load4(in + i + 8), i + 8);
+      const I4 q3 = lanes4::FormLanes(f4, Load4(in + i + 12), i + 12);
       // Values are in [0, 255]: saturating packs are exact.
       const __m128i lo = _mm_packs_epi32((__m128i)q0, (__m128i)q1);
       const __m128i hi = _mm_packs_epi32((__m128i)q2, (__m128i)q3);
@@ -1033,7 +1110,7 @@ void FormImage(const std::vector<float>& radiance, int width, int height, double
       const size_t i = row_start + u;
       F4 r = Splat(0.0f);
       for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
-      const I4 q = form4(r, i);
+      const I4 q = lanes4::FormLanes(f4, r, i);
       for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
     }
   }

@@ -93,34 +93,40 @@ const Parts& GetParts(const std::string& preset) {
   return *cache.emplace(preset, std::move(parts)).first->second;
 }
 
-void BM_Radiance(benchmark::State& state, const std::string& preset) {
+// `lanes`: 8 (AVX2, where the CPU has it: the default) or 4 (SSE2), the same images.
+void BM_Radiance(benchmark::State& state, const std::string& preset, int lanes) {
   const Parts& parts = GetParts(preset);
+  mav::sim::CameraRenderer renderer(parts.world, parts.renderer->camera());
+  renderer.UseAvx2(lanes == 8);
+  if (lanes == 8 && !renderer.UsesAvx2()) return state.SkipWithError("this CPU has no AVX2");
   std::vector<float> radiance, range;
   size_t k = 0;
   for (auto _ : state) {
-    parts.renderer->RenderRadiance(parts.mid[k], &radiance, &range);
+    renderer.RenderRadiance(parts.mid[k], &radiance, &range);
     benchmark::DoNotOptimize(radiance.data());
     k = (k + 1) % parts.mid.size();
   }
 }
 
-void BM_Blur(benchmark::State& state, const std::string& preset) {
+void BM_Blur(benchmark::State& state, const std::string& preset, int lanes) {
   const Parts& parts = GetParts(preset);
+  mav::sim::CameraRenderer renderer(parts.world, parts.renderer->camera());
+  renderer.UseAvx2(lanes == 8);
+  if (lanes == 8 && !renderer.UsesAvx2()) return state.SkipWithError("this CPU has no AVX2");
   std::vector<std::vector<float>> radiance(parts.mid.size()), range(parts.mid.size());
   for (size_t k = 0; k < parts.mid.size(); ++k)
-    parts.renderer->RenderRadiance(parts.mid[k], &radiance[k], &range[k]);
+    renderer.RenderRadiance(parts.mid[k], &radiance[k], &range[k]);
   std::vector<float> blurred;
   size_t k = parts.mid.size() / 2;  // the first iteration (profilers) in mid-flight
   for (auto _ : state) {
-    parts.renderer->BlurByReprojection(radiance[k], range[k], parts.mid[k], parts.open[k],
-                                       parts.close[k], parts.effects.reprojection_max_samples,
-                                       &blurred);
+    renderer.BlurByReprojection(radiance[k], range[k], parts.mid[k], parts.open[k], parts.close[k],
+                                parts.effects.reprojection_max_samples, &blurred);
     benchmark::DoNotOptimize(blurred.data());
     k = (k + 1) % parts.mid.size();
   }
 }
 
-void BM_FormImage(benchmark::State& state, const std::string& preset) {
+void BM_FormImage(benchmark::State& state, const std::string& preset, int lanes) {
   const Parts& parts = GetParts(preset);
   std::vector<float> radiance;
   parts.renderer->RenderRadiance(parts.mid[0], &radiance);
@@ -128,15 +134,19 @@ void BM_FormImage(benchmark::State& state, const std::string& preset) {
   uint64_t key = 0;
   for (auto _ : state) {
     mav::sim::FormImage(radiance, parts.renderer->width(), parts.renderer->height(), 1.1,
-                        parts.effects.noise_sigma, ++key, &image);
+                        parts.effects.noise_sigma, ++key, &image, lanes == 8);
     benchmark::DoNotOptimize(image.data);
   }
 }
 // clang-format off
-BENCHMARK_CAPTURE(BM_Radiance, room-hard, std::string("room-hard"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Blur, room-hard, std::string("room-hard"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_FormImage, room-hard, std::string("room-hard"))->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Radiance, plant, std::string("plant"))->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, room-hard, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, room-hard/4-lanes, std::string("room-hard"), 4)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Blur, room-hard, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Blur, room-hard/4-lanes, std::string("room-hard"), 4)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FormImage, room-hard, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FormImage, room-hard/4-lanes, std::string("room-hard"), 4)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, plant, std::string("plant"), 8)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, plant/4-lanes, std::string("plant"), 4)->Unit(benchmark::kMillisecond);
 // clang-format on
 
 void BM_ComputeOccupancy(benchmark::State& state) {

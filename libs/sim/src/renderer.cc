@@ -26,6 +26,8 @@ namespace {
 constexpr int kTile = 16;       // pixels per tile side
 constexpr int kSuper = 4;       // tiles per super-tile side (64 x 64 pixels)
 constexpr float kTMin = 1e-3f;  // metres
+constexpr int kTileRays = kTile * kTile;
+constexpr float kInf = std::numeric_limits<float>::infinity();
 
 // ---- 4-wide float SIMD (GCC/Clang vector extensions: SSE2 on x86-64, the baseline; any other
 // target gets whatever the compiler makes of them) ----
@@ -72,89 +74,6 @@ inline bool All4(I4 m) {
 }
 inline float HMax4(F4 a) { return std::max(std::max(a[0], a[1]), std::max(a[2], a[3])); }
 
-// log2 stand-in of Texture::FastLog2 (exponent + linear mantissa), 4 values >= 1.
-inline F4 FastLog2x4(F4 x) {
-  const I4 bits = (I4)x;
-  const I4 exponent = ((bits >> 23) & 0xff) - 127;
-  const F4 mantissa = (F4)((bits & 0x007fffff) | 0x3f800000);
-  return ToFloat4(exponent) + (mantissa - Splat(1.0f));
-}
-
-// Texture sampling of 4 pixels in two steps, so that the texel fetches of many pixels can be
-// in flight at once (the fetches miss the caches: a frame touches megabytes of texels):
-// TexAddress4 computes the quad addresses and weights (and prefetches), TexFetch4 blends.
-struct TexLookup4 {
-  const uint16_t* quad[2][4];  // [level l0, l0 + 1][lane]
-  F4 ax[2], ay[2];             // bilinear weights per level
-  F4 f;                        // blend weight of level l0 + 1
-  bool single;                 // f == 0 in every lane: level l0 + 1 not needed
-};
-
-// Quad address and bilinear weights of level l[j] of texture tex[j] per lane
-// (Texture::SampleLevel). Vectors are assembled from scalars with initialisers (register
-// shuffles), never by writing single lanes in memory (which defeats store forwarding).
-inline void LevelAddress4(const Texture* const tex[4], bool same_texture, I4 l, F4 u, F4 v,
-                          const uint16_t** quad, F4* ax_out, F4* ay_out) {
-  const int l0 = l[0], l1 = l[1], l2 = l[2], l3 = l[3];
-  F4 scale;
-  I4 n;                                                    // stored sizes
-  if (same_texture && l0 == l1 && l0 == l2 && l0 == l3) {  // the common case
-    scale = Splat(tex[0]->level_scale(l0));
-    const int size = tex[0]->level_size(l0);
-    n = I4{size, size, size, size};
-  } else {
-    scale = F4{tex[0]->level_scale(l0), tex[1]->level_scale(l1), tex[2]->level_scale(l2),
-               tex[3]->level_scale(l3)};
-    n = I4{tex[0]->level_size(l0), tex[1]->level_size(l1), tex[2]->level_size(l2),
-           tex[3]->level_size(l3)};
-  }
-  const I4 mask = n - 1;
-  const F4 x = u * scale - Splat(0.5f), y = v * scale - Splat(0.5f);
-  const I4 tx = TruncToInt4(x), ty = TruncToInt4(y);
-  const I4 ix = tx + (x < ToFloat4(tx)), iy = ty + (y < ToFloat4(ty));  // floor
-  *ax_out = x - ToFloat4(ix);
-  *ay_out = y - ToFloat4(iy);
-  // Texture's quad layout: quad Texture::BlockColumn(x) + Texture::BlockRow(y, size).
-  static_assert(Texture::kBlockW == 4 && Texture::kBlockH == 2);
-  const I4 cx = ix & mask, cy = iy & mask;
-  const I4 index = TruncToInt4(ToFloat4(cy >> 1) * (ToFloat4(n) * Splat(2.0f))) + ((cy & 1) << 2) +
-                   ((cx >> 2) << 3) + (cx & 3);  // exact: < 2^24
-  quad[0] = tex[0]->level_data(l0) + 4 * static_cast<size_t>(index[0]);
-  quad[1] = tex[1]->level_data(l1) + 4 * static_cast<size_t>(index[1]);
-  quad[2] = tex[2]->level_data(l2) + 4 * static_cast<size_t>(index[2]);
-  quad[3] = tex[3]->level_data(l3) + 4 * static_cast<size_t>(index[3]);
-  for (int j = 0; j < 4; ++j) __builtin_prefetch(quad[j]);
-}
-
-// Texture::Sample's level choice for 4 lanes, each with its own texture.
-inline void TexAddress4(const Texture* const tex[4], F4 u, F4 v, F4 footprint_m, TexLookup4* out) {
-  const bool same_texture = tex[0] == tex[1] && tex[0] == tex[2] && tex[0] == tex[3];
-  F4 inv_texel, max_level, top_pair;
-  if (same_texture) {
-    inv_texel = Splat(tex[0]->inv_texel_size_m());
-    max_level = Splat(tex[0]->max_level());
-    top_pair = Splat(static_cast<float>(tex[0]->top_pair()));
-  } else {
-    inv_texel = F4{tex[0]->inv_texel_size_m(), tex[1]->inv_texel_size_m(),
-                   tex[2]->inv_texel_size_m(), tex[3]->inv_texel_size_m()};
-    max_level =
-        F4{tex[0]->max_level(), tex[1]->max_level(), tex[2]->max_level(), tex[3]->max_level()};
-    top_pair = ToFloat4(
-        I4{tex[0]->top_pair(), tex[1]->top_pair(), tex[2]->top_pair(), tex[3]->top_pair()});
-  }
-  const F4 texels = Max4(footprint_m * inv_texel, Splat(1.0f));
-  const F4 level = Min4(FastLog2x4(texels), max_level);
-  const F4 l0f = Min4(ToFloat4(TruncToInt4(level)), top_pair);
-  out->f = level - l0f;
-  const I4 l0 = TruncToInt4(l0f);
-  LevelAddress4(tex, same_texture, l0, u, v, out->quad[0], &out->ax[0], &out->ay[0]);
-  // Magnified texture (footprint below one texel) in all lanes: level 0 alone.
-  out->single = All4(out->f == Splat(0.0f));
-  if (!out->single) {
-    LevelAddress4(tex, same_texture, l0 + 1, u, v, out->quad[1], &out->ax[1], &out->ay[1]);
-  }
-}
-
 // Bilinear blend of the quads of one level, 4 lanes (in texel units).
 inline F4 LevelFetch4(const uint16_t* const q[4], F4 ax, F4 ay) {
 #if defined(__SSE2__)
@@ -180,14 +99,6 @@ inline F4 LevelFetch4(const uint16_t* const q[4], F4 ax, F4 ay) {
   const F4 top = tl + ax * (tr - tl);
   const F4 bottom = bl + ax * (br - bl);
   return top + ay * (bottom - top);
-}
-
-// Trilinear result (albedo) of a lookup.
-inline F4 TexFetch4(const TexLookup4& t) {
-  const F4 a = LevelFetch4(t.quad[0], t.ax[0], t.ay[0]);
-  if (t.single) return a * Splat(Texture::kAlbedoPerTexel);
-  const F4 b = LevelFetch4(t.quad[1], t.ax[1], t.ay[1]);
-  return (a + t.f * (b - a)) * Splat(Texture::kAlbedoPerTexel);
 }
 
 // Bilinear interpolation of a row-major image at 4 positions given by the offsets `idx` of the
@@ -224,188 +135,6 @@ inline F4 Bilinear4(const float* img, const I4& idx, size_t stride, F4 ax, F4 ay
   const F4 top = tl + ax * (tr - tl);
   const F4 bottom = bl + ax * (br - bl);
   return top + ay * (bottom - top);
-}
-
-#define MAV_SIM_INLINE inline __attribute__((always_inline))
-
-// What the blur kernels need of one BlurByReprojection call (renderer_lanes.inc).
-struct BlurFrame {
-  const float* sharp;
-  const float* range;
-  const float *rx, *ry, *rz;  // the ray LUT
-  size_t n;                   // pixels
-  int w, h;
-  float ro[9], to[3], rc[9], tc[3];  // open and close camera from the mid camera
-  float fx, fy, cx, cy, k1, k2, p1, p2;
-  int max_samples;
-};
-constexpr float kBlurMargin = 0.01f;  // pixels: keeps stepped sample positions inside
-
-// The kernels 4 lanes wide (SSE2: the x86-64 baseline).
-namespace lanes4 {
-typedef F4 V;
-typedef I4 VI;
-constexpr int kLanes = 4;
-MAV_SIM_INLINE V Splat(float x) { return ::mav::sim::Splat(x); }
-MAV_SIM_INLINE V Load(const float* p) { return Load4(p); }
-MAV_SIM_INLINE V Select(VI m, V a, V b) { return ::mav::sim::Select(m, a, b); }
-MAV_SIM_INLINE V Min(V a, V b) { return Min4(a, b); }
-MAV_SIM_INLINE V Max(V a, V b) { return Max4(a, b); }
-MAV_SIM_INLINE V Abs(V a) { return Abs4(a); }
-MAV_SIM_INLINE V Sqrt(V a) { return Sqrt4(a); }
-MAV_SIM_INLINE VI Trunc(V a) { return TruncToInt4(a); }
-MAV_SIM_INLINE V ToFloat(VI a) { return ToFloat4(a); }
-MAV_SIM_INLINE bool All(VI m) { return All4(m); }
-MAV_SIM_INLINE float HMax(V a) { return HMax4(a); }
-MAV_SIM_INLINE V LaneIndex() { return V{0, 1, 2, 3}; }
-MAV_SIM_INLINE V Bilinear(const float* img, const VI& idx, size_t stride, V ax, V ay) {
-  return Bilinear4(img, idx, stride, ax, ay);
-}
-#include "renderer_lanes.inc"
-}  // namespace lanes4
-
-#if defined(MAV_SIM_HAVE_AVX2)
-// The kernels 8 lanes wide, AVX2 (no FMA: the same roundings as the 4 lanes), compiled for
-// AVX2 here and run only where the CPU has it (CpuHasAvx2).
-#if defined(__clang__)
-#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
-#else
-#pragma GCC push_options
-#pragma GCC target("avx2")
-#endif
-namespace lanes8 {
-typedef float V __attribute__((vector_size(32)));
-typedef int32_t VI __attribute__((vector_size(32)));
-constexpr int kLanes = 8;
-MAV_SIM_INLINE V Splat(float x) { return V{x, x, x, x, x, x, x, x}; }
-MAV_SIM_INLINE V Load(const float* p) {
-  V v;
-  std::memcpy(&v, p, sizeof(v));
-  return v;
-}
-MAV_SIM_INLINE void Store(float* p, V v) { std::memcpy(p, &v, sizeof(v)); }
-MAV_SIM_INLINE V Select(VI m, V a, V b) { return (V)(((VI)a & m) | ((VI)b & ~m)); }
-MAV_SIM_INLINE V Min(V a, V b) { return (V)_mm256_min_ps((__m256)a, (__m256)b); }
-MAV_SIM_INLINE V Max(V a, V b) { return (V)_mm256_max_ps((__m256)a, (__m256)b); }
-MAV_SIM_INLINE V Abs(V a) { return (V)((VI)a & 0x7fffffff); }
-MAV_SIM_INLINE V Sqrt(V a) { return (V)_mm256_sqrt_ps((__m256)a); }
-MAV_SIM_INLINE VI Trunc(V a) { return __builtin_convertvector(a, VI); }
-MAV_SIM_INLINE V ToFloat(VI a) { return __builtin_convertvector(a, V); }
-MAV_SIM_INLINE int Mask(VI m) { return _mm256_movemask_ps((__m256)m); }
-MAV_SIM_INLINE bool All(VI m) { return Mask(m) == 0xff; }
-MAV_SIM_INLINE float HMax(V a) {
-  const __m128 m =
-      _mm_max_ps(_mm256_castps256_ps128((__m256)a), _mm256_extractf128_ps((__m256)a, 1));
-  return std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
-}
-MAV_SIM_INLINE V LaneIndex() { return V{0, 1, 2, 3, 4, 5, 6, 7}; }
-MAV_SIM_INLINE V Bilinear(const float* img, const VI& idx, size_t stride, V ax, V ay) {
-  V tl, tr, bl, br;
-  const int i0 = idx[0];
-  if (All(idx == i0 + VI{0, 1, 2, 3, 4, 5, 6, 7})) {  // 8 neighbours in a row: the common case
-    const float* p = img + i0;
-    tl = Load(p);
-    tr = Load(p + 1);
-    bl = Load(p + stride);
-    br = Load(p + stride + 1);
-  } else {
-    const __m256i vi = (__m256i)idx;
-    tl = (V)_mm256_i32gather_ps(img, vi, 4);
-    tr = (V)_mm256_i32gather_ps(img + 1, vi, 4);
-    bl = (V)_mm256_i32gather_ps(img + stride, vi, 4);
-    br = (V)_mm256_i32gather_ps(img + stride + 1, vi, 4);
-  }
-  const V top = tl + ax * (tr - tl);
-  const V bottom = bl + ax * (br - bl);
-  return top + ay * (bottom - top);
-}
-#include "renderer_lanes.inc"
-
-// Pixels u .. u + 7 of row v: 8 lanes wherever the result is the 4-lane kernel's, which
-// decides per group of 4 whether its segments stay inside the image.
-MAV_SIM_INLINE V BlurLanesAs4(const BlurFrame& b, const BlurConsts& c, const lanes4::BlurConsts& c4,
-                              int v, int u) {
-  Segments s;
-  if (!SegmentsOf(b, c, v, u, &s)) return s.sharp;
-  // Inside over the 8 lanes' longest segment: inside over each 4's (their segments are parts).
-  if (All(SegmentsInside(c, s, Splat(static_cast<float>(s.n_max - 1))))) {
-    return IntegrateInside(b, c, s);
-  }
-  // Each 4's own decision; groups of 4 that are still take `sharp` either way.
-  const __m128 lo = _mm256_castps256_ps128((__m256)s.count);
-  const __m128 hi = _mm256_extractf128_ps((__m256)s.count, 1);
-  const float last_lo = std::max(std::max(lo[0], lo[1]), std::max(lo[2], lo[3])) - 1;
-  const float last_hi = std::max(std::max(hi[0], hi[1]), std::max(hi[2], hi[3])) - 1;
-  const V last = V{last_lo, last_lo, last_lo, last_lo, last_hi, last_hi, last_hi, last_hi};
-  const int inside = Mask(SegmentsInside(c, s, last)), still = Mask(s.still);
-  const bool lo_inside = (still & 0x0f) != 0x0f && (inside & 0x0f) == 0x0f;
-  const bool hi_inside = (still & 0xf0) != 0xf0 && (inside & 0xf0) == 0xf0;
-  if (!lo_inside && !hi_inside) return IntegrateClamped(b, c, s);
-  const lanes4::V a = lanes4::BlurLanes(b, c4, v, u), d = lanes4::BlurLanes(b, c4, v, u + 4);
-  return V{a[0], a[1], a[2], a[3], d[0], d[1], d[2], d[3]};
-}
-
-void BlurRows(const BlurFrame& b, float* out) {
-  const BlurConsts c = MakeBlurConsts(b);
-  const lanes4::BlurConsts c4 = lanes4::MakeBlurConsts(b);
-  for (int v = 0; v < b.h; ++v) {
-    const size_t row = static_cast<size_t>(v) * b.w;
-    int u = 0;
-    for (; u + 8 <= b.w; u += 8) Store(out + row + u, BlurLanesAs4(b, c, c4, v, u));
-    for (; u < b.w; u += 4) {
-      const lanes4::V r = lanes4::BlurLanes(b, c4, v, u);
-      for (int j = 0; j < 4 && u + j < b.w; ++j) out[row + u + j] = r[j];
-    }
-  }
-  _mm256_zeroupper();
-}
-
-// FormImage, 32 pixels per step.
-void FormRows(const float* in, int width, int height, const lanes4::FormConsts& f4,
-              cv::Mat* image) {
-  const FormConsts f{Splat(f4.scale[0]), Splat(f4.noise_scale[0]), f4.key_lo, f4.key_hi};
-  for (int v = 0; v < height; ++v) {
-    uint8_t* row = image->ptr<uint8_t>(v);
-    const size_t row_start = static_cast<size_t>(v) * width;
-    int u = 0;
-    for (; u + 32 <= width; u += 32) {
-      const size_t i = row_start + u;
-      const VI q0 = FormLanes(f, Load(in + i), i), q1 = FormLanes(f, Load(in + i + 8), i + 8);
-      const VI q2 = FormLanes(f, Load(in + i + 16), i + 16);
-      const VI q3 = FormLanes(f, Load(in + i + 24), i + 24);
-      // Values are in [0, 255]: saturating packs are exact. The packs work per 128-bit half;
-      // the permutation puts the 4-pixel pieces back in order.
-      const __m256i lo = _mm256_packs_epi32((__m256i)q0, (__m256i)q1);
-      const __m256i hi = _mm256_packs_epi32((__m256i)q2, (__m256i)q3);
-      const __m256i bytes = _mm256_permutevar8x32_epi32(_mm256_packus_epi16(lo, hi),
-                                                        _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7));
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + u), bytes);
-    }
-    for (; u < width; u += 4) {
-      const size_t i = row_start + u;
-      F4 r = ::mav::sim::Splat(0.0f);
-      for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
-      const I4 q = lanes4::FormLanes(f4, r, i);
-      for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
-    }
-  }
-  _mm256_zeroupper();
-}
-}  // namespace lanes8
-#if defined(__clang__)
-#pragma clang attribute pop
-#else
-#pragma GCC pop_options
-#endif
-#endif  // MAV_SIM_HAVE_AVX2
-
-bool CpuHasAvx2() {
-#if defined(MAV_SIM_HAVE_AVX2)
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
-#else
-  return false;
-#endif
 }
 
 struct Cone {
@@ -522,6 +251,231 @@ std::vector<Proxy> MakeProxies(const World& world) {
   return proxies;
 }
 
+// What the tile loop needs of one frame (renderer_lanes.inc: RenderTiles).
+struct RenderFrame {
+  int width, height, tiles_x, tiles_y, supers_x, supers_y;
+  const float *tile_rx, *tile_ry, *tile_rz, *tile_t0;  // CameraRenderer::Impl's
+  const float* pixel_angle;
+  const Cone *tile_cones, *super_cones;
+  const Proxy* proxies;
+  const SphereView* spheres;  // per proxy
+  size_t num_spheres;
+  const PrimFrame* frames;  // per primitive
+  size_t num_prims;
+  float background, ambient, diffuse;
+};
+
+#define MAV_SIM_INLINE inline __attribute__((always_inline))
+
+// What the blur kernels need of one BlurByReprojection call (renderer_lanes.inc).
+struct BlurFrame {
+  const float* sharp;
+  const float* range;
+  const float *rx, *ry, *rz;  // the ray LUT
+  size_t n;                   // pixels
+  int w, h;
+  float ro[9], to[3], rc[9], tc[3];  // open and close camera from the mid camera
+  float fx, fy, cx, cy, k1, k2, p1, p2;
+  int max_samples;
+};
+constexpr float kBlurMargin = 0.01f;  // pixels: keeps stepped sample positions inside
+
+// The kernels 4 lanes wide (SSE2: the x86-64 baseline).
+namespace lanes4 {
+typedef F4 V;
+typedef I4 VI;
+constexpr int kLanes = 4;
+MAV_SIM_INLINE V Splat(float x) { return ::mav::sim::Splat(x); }
+MAV_SIM_INLINE V Load(const float* p) { return Load4(p); }
+MAV_SIM_INLINE void Store(float* p, V v) { Store4(p, v); }
+MAV_SIM_INLINE V Select(VI m, V a, V b) { return ::mav::sim::Select(m, a, b); }
+MAV_SIM_INLINE V Min(V a, V b) { return Min4(a, b); }
+MAV_SIM_INLINE V Max(V a, V b) { return Max4(a, b); }
+MAV_SIM_INLINE V Abs(V a) { return Abs4(a); }
+MAV_SIM_INLINE V Sqrt(V a) { return Sqrt4(a); }
+MAV_SIM_INLINE VI Trunc(V a) { return TruncToInt4(a); }
+MAV_SIM_INLINE V ToFloat(VI a) { return ToFloat4(a); }
+MAV_SIM_INLINE bool All(VI m) { return All4(m); }
+MAV_SIM_INLINE float HMax(V a) { return HMax4(a); }
+MAV_SIM_INLINE V LaneIndex() { return V{0, 1, 2, 3}; }
+MAV_SIM_INLINE V Bilinear(const float* img, const VI& idx, size_t stride, V ax, V ay) {
+  return Bilinear4(img, idx, stride, ax, ay);
+}
+MAV_SIM_INLINE V LevelFetch(const uint16_t* const q[4], V ax, V ay) {
+  return LevelFetch4(q, ax, ay);
+}
+#include "renderer_lanes.inc"
+}  // namespace lanes4
+
+#if defined(MAV_SIM_HAVE_AVX2)
+// The kernels 8 lanes wide, AVX2 (no FMA: the same roundings as the 4 lanes), compiled for
+// AVX2 here and run only where the CPU has it (CpuHasAvx2).
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+namespace lanes8 {
+typedef float V __attribute__((vector_size(32)));
+typedef int32_t VI __attribute__((vector_size(32)));
+constexpr int kLanes = 8;
+MAV_SIM_INLINE V Splat(float x) { return V{x, x, x, x, x, x, x, x}; }
+MAV_SIM_INLINE V Load(const float* p) {
+  V v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+MAV_SIM_INLINE void Store(float* p, V v) { std::memcpy(p, &v, sizeof(v)); }
+MAV_SIM_INLINE V Select(VI m, V a, V b) { return (V)(((VI)a & m) | ((VI)b & ~m)); }
+MAV_SIM_INLINE V Min(V a, V b) { return (V)_mm256_min_ps((__m256)a, (__m256)b); }
+MAV_SIM_INLINE V Max(V a, V b) { return (V)_mm256_max_ps((__m256)a, (__m256)b); }
+MAV_SIM_INLINE V Abs(V a) { return (V)((VI)a & 0x7fffffff); }
+MAV_SIM_INLINE V Sqrt(V a) { return (V)_mm256_sqrt_ps((__m256)a); }
+MAV_SIM_INLINE VI Trunc(V a) { return __builtin_convertvector(a, VI); }
+MAV_SIM_INLINE V ToFloat(VI a) { return __builtin_convertvector(a, V); }
+MAV_SIM_INLINE int Mask(VI m) { return _mm256_movemask_ps((__m256)m); }
+MAV_SIM_INLINE bool All(VI m) { return Mask(m) == 0xff; }
+MAV_SIM_INLINE float HMax(V a) {
+  const __m128 m =
+      _mm_max_ps(_mm256_castps256_ps128((__m256)a), _mm256_extractf128_ps((__m256)a, 1));
+  return std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
+}
+MAV_SIM_INLINE V LaneIndex() { return V{0, 1, 2, 3, 4, 5, 6, 7}; }
+MAV_SIM_INLINE V Bilinear(const float* img, const VI& idx, size_t stride, V ax, V ay) {
+  V tl, tr, bl, br;
+  const int i0 = idx[0];
+  if (All(idx == i0 + VI{0, 1, 2, 3, 4, 5, 6, 7})) {  // 8 neighbours in a row: the common case
+    const float* p = img + i0;
+    tl = Load(p);
+    tr = Load(p + 1);
+    bl = Load(p + stride);
+    br = Load(p + stride + 1);
+  } else {
+    const __m256i vi = (__m256i)idx;
+    tl = (V)_mm256_i32gather_ps(img, vi, 4);
+    tr = (V)_mm256_i32gather_ps(img + 1, vi, 4);
+    bl = (V)_mm256_i32gather_ps(img + stride, vi, 4);
+    br = (V)_mm256_i32gather_ps(img + stride + 1, vi, 4);
+  }
+  const V top = tl + ax * (tr - tl);
+  const V bottom = bl + ax * (br - bl);
+  return top + ay * (bottom - top);
+}
+// Bilinear blend of the quads of one level (LevelFetch4, two groups of 4 side by side).
+MAV_SIM_INLINE V LevelFetch(const uint16_t* const q[8], V ax, V ay) {
+  auto pair = [&](int j) {
+    return _mm_unpacklo_epi64(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(q[j])),
+                              _mm_loadl_epi64(reinterpret_cast<const __m128i*>(q[j + 1])));
+  };
+  // Lanes 0-3 in the low halves, 4-7 in the high ones; the unpacks and shuffles work per half.
+  const __m256i a = _mm256_inserti128_si256(_mm256_castsi128_si256(pair(0)), pair(4), 1);
+  const __m256i b = _mm256_inserti128_si256(_mm256_castsi128_si256(pair(2)), pair(6), 1);
+  const __m256i zero = _mm256_setzero_si256();
+  const __m256 k0 = _mm256_cvtepi32_ps(_mm256_unpacklo_epi16(a, zero));
+  const __m256 k1 = _mm256_cvtepi32_ps(_mm256_unpackhi_epi16(a, zero));
+  const __m256 k2 = _mm256_cvtepi32_ps(_mm256_unpacklo_epi16(b, zero));
+  const __m256 k3 = _mm256_cvtepi32_ps(_mm256_unpackhi_epi16(b, zero));
+  // One lane's quad per register, transposed to one corner per register.
+  const __m256 t0 = _mm256_unpacklo_ps(k0, k1), t1 = _mm256_unpacklo_ps(k2, k3);
+  const __m256 t2 = _mm256_unpackhi_ps(k0, k1), t3 = _mm256_unpackhi_ps(k2, k3);
+  const V tl = (V)_mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(1, 0, 1, 0));
+  const V tr = (V)_mm256_shuffle_ps(t0, t1, _MM_SHUFFLE(3, 2, 3, 2));
+  const V bl = (V)_mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(1, 0, 1, 0));
+  const V br = (V)_mm256_shuffle_ps(t2, t3, _MM_SHUFFLE(3, 2, 3, 2));
+  const V top = tl + ax * (tr - tl);
+  const V bottom = bl + ax * (br - bl);
+  return top + ay * (bottom - top);
+}
+#include "renderer_lanes.inc"
+
+// Pixels u .. u + 7 of row v: 8 lanes wherever the result is the 4-lane kernel's, which
+// decides per group of 4 whether its segments stay inside the image.
+MAV_SIM_INLINE V BlurLanesAs4(const BlurFrame& b, const BlurConsts& c, const lanes4::BlurConsts& c4,
+                              int v, int u) {
+  Segments s;
+  if (!SegmentsOf(b, c, v, u, &s)) return s.sharp;
+  // Inside over the 8 lanes' longest segment: inside over each 4's (their segments are parts).
+  if (All(SegmentsInside(c, s, Splat(static_cast<float>(s.n_max - 1))))) {
+    return IntegrateInside(b, c, s);
+  }
+  // Each 4's own decision; groups of 4 that are still take `sharp` either way.
+  const __m128 lo = _mm256_castps256_ps128((__m256)s.count);
+  const __m128 hi = _mm256_extractf128_ps((__m256)s.count, 1);
+  const float last_lo = std::max(std::max(lo[0], lo[1]), std::max(lo[2], lo[3])) - 1;
+  const float last_hi = std::max(std::max(hi[0], hi[1]), std::max(hi[2], hi[3])) - 1;
+  const V last = V{last_lo, last_lo, last_lo, last_lo, last_hi, last_hi, last_hi, last_hi};
+  const int inside = Mask(SegmentsInside(c, s, last)), still = Mask(s.still);
+  const bool lo_inside = (still & 0x0f) != 0x0f && (inside & 0x0f) == 0x0f;
+  const bool hi_inside = (still & 0xf0) != 0xf0 && (inside & 0xf0) == 0xf0;
+  if (!lo_inside && !hi_inside) return IntegrateClamped(b, c, s);
+  const lanes4::V a = lanes4::BlurLanes(b, c4, v, u), d = lanes4::BlurLanes(b, c4, v, u + 4);
+  return V{a[0], a[1], a[2], a[3], d[0], d[1], d[2], d[3]};
+}
+
+void BlurRows(const BlurFrame& b, float* out) {
+  const BlurConsts c = MakeBlurConsts(b);
+  const lanes4::BlurConsts c4 = lanes4::MakeBlurConsts(b);
+  for (int v = 0; v < b.h; ++v) {
+    const size_t row = static_cast<size_t>(v) * b.w;
+    int u = 0;
+    for (; u + 8 <= b.w; u += 8) Store(out + row + u, BlurLanesAs4(b, c, c4, v, u));
+    for (; u < b.w; u += 4) {
+      const lanes4::V r = lanes4::BlurLanes(b, c4, v, u);
+      for (int j = 0; j < 4 && u + j < b.w; ++j) out[row + u + j] = r[j];
+    }
+  }
+  _mm256_zeroupper();
+}
+
+// FormImage, 32 pixels per step.
+void FormRows(const float* in, int width, int height, const lanes4::FormConsts& f4,
+              cv::Mat* image) {
+  const FormConsts f{Splat(f4.scale[0]), Splat(f4.noise_scale[0]), f4.key_lo, f4.key_hi};
+  for (int v = 0; v < height; ++v) {
+    uint8_t* row = image->ptr<uint8_t>(v);
+    const size_t row_start = static_cast<size_t>(v) * width;
+    int u = 0;
+    for (; u + 32 <= width; u += 32) {
+      const size_t i = row_start + u;
+      const VI q0 = FormLanes(f, Load(in + i), i), q1 = FormLanes(f, Load(in + i + 8), i + 8);
+      const VI q2 = FormLanes(f, Load(in + i + 16), i + 16);
+      const VI q3 = FormLanes(f, Load(in + i + 24), i + 24);
+      // Values are in [0, 255]: saturating packs are exact. The packs work per 128-bit half;
+      // the permutation puts the 4-pixel pieces back in order.
+      const __m256i lo = _mm256_packs_epi32((__m256i)q0, (__m256i)q1);
+      const __m256i hi = _mm256_packs_epi32((__m256i)q2, (__m256i)q3);
+      const __m256i bytes = _mm256_permutevar8x32_epi32(_mm256_packus_epi16(lo, hi),
+                                                        _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + u), bytes);
+    }
+    for (; u < width; u += 4) {
+      const size_t i = row_start + u;
+      F4 r = ::mav::sim::Splat(0.0f);
+      for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
+      const I4 q = lanes4::FormLanes(f4, r, i);
+      for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
+    }
+  }
+  _mm256_zeroupper();
+}
+}  // namespace lanes8
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+#endif  // MAV_SIM_HAVE_AVX2
+
+bool CpuHasAvx2() {
+#if defined(MAV_SIM_HAVE_AVX2)
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+#else
+  return false;
+#endif
+}
+
 }  // namespace
 
 struct CameraRenderer::Impl {
@@ -542,30 +496,6 @@ struct CameraRenderer::Impl {
   bool avx2 = false;                     // the 8-lane kernels (CpuHasAvx2())
 
   void Render(const geometry::SE3& T_world_cam, float* radiance, float* range) const;
-
-  // Intersects the rays of one tile (tile-ordered LUT, kTile^2 rays) with one primitive (kernel:
-  // 4 local directions -> 4 hit distances) and keeps the nearest hit per pixel. Returns the
-  // largest nearest-hit distance over the tile afterwards.
-  template <typename Kernel>
-  static float IntersectTile(const PrimFrame& f, int prim, const float* tx, const float* ty,
-                             const float* tz, F4* t_best, F4* id_best, Kernel kernel) {
-    const float* m = f.m;
-    const F4 m0 = Splat(m[0]), m1 = Splat(m[1]), m2 = Splat(m[2]), m3 = Splat(m[3]),
-             m4 = Splat(m[4]), m5 = Splat(m[5]), m6 = Splat(m[6]), m7 = Splat(m[7]),
-             m8 = Splat(m[8]);
-    const F4 id = Splat(static_cast<float>(prim));
-    F4 t_max = Splat(0.0f);
-    for (int j = 0; j < kTile * kTile / 4; ++j) {
-      const F4 cx = Load4(tx + 4 * j), cy = Load4(ty + 4 * j), cz = Load4(tz + 4 * j);
-      const F4 t = kernel(m0 * cx + m1 * cy + m2 * cz, m3 * cx + m4 * cy + m5 * cz,
-                          m6 * cx + m7 * cy + m8 * cz);
-      const I4 better = t < t_best[j];
-      t_best[j] = Select(better, t, t_best[j]);
-      id_best[j] = Select(better, id, id_best[j]);
-      t_max = Max4(t_best[j], t_max);
-    }
-    return HMax4(t_max);
-  }
 };
 
 CameraRenderer::CameraRenderer(std::shared_ptr<const World> world,
@@ -783,290 +713,32 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
                             static_cast<float>(c.z()), static_cast<float>(proxies[i].radius));
   }
 
-  std::vector<int> super_list;
-  std::vector<Candidate> tile_list;
-  super_list.reserve(np);
-  tile_list.reserve(prims.size());
-  std::vector<int> stamp(prims.size(), -1), slot(prims.size(), 0);
-  constexpr int kRays = kTile * kTile;
-  F4 t_best4[kRays / 4];
-  F4 id_best4[kRays / 4];
-  // Shading inputs per tile pixel.
-  alignas(16) float sh_u[kRays], sh_v[kRays], sh_fp[kRays], sh_shade[kRays], sh_emit[kRays],
-      sh_t[kRays], sh_rad[kRays];
-  const Texture* sh_tex[kRays];
-  TexLookup4 lookups[kRays / 4];
-  bool has_texture[kRays / 4];
-  const float background = static_cast<float>(lighting.background);
-  const float ambient = static_cast<float>(lighting.ambient);
-  const float diffuse = static_cast<float>(lighting.diffuse);
-
-  for (int sy = 0; sy < supers_y; ++sy) {
-    for (int sx = 0; sx < supers_x; ++sx) {
-      const Cone& sc = super_cones[sy * supers_x + sx];
-      super_list.clear();
-      if (!sc.empty) {
-        for (size_t i = 0; i < np; ++i) {
-          if (ConeHitsSphere(sc, spheres[i])) {
-            super_list.push_back(static_cast<int>(i));
-          }
-        }
-      }
-      for (int ty = sy * kSuper; ty < std::min((sy + 1) * kSuper, tiles_y); ++ty) {
-        for (int tx = sx * kSuper; tx < std::min((sx + 1) * kSuper, tiles_x); ++tx) {
-          const int tile_index = ty * tiles_x + tx;
-          const Cone& tc = tile_cones[tile_index];
-          tile_list.clear();
-          if (!tc.empty) {
-            for (int pi : super_list) {
-              const SphereView& sphere = spheres[pi];
-              if (!ConeHitsSphere(tc, sphere)) continue;
-              const float near = sphere.near;
-              const int prim = proxies[pi].primitive;
-              if (stamp[prim] == tile_index) {
-                float& best = tile_list[slot[prim]].near;
-                best = std::min(best, near);
-              } else {
-                stamp[prim] = tile_index;
-                slot[prim] = static_cast<int>(tile_list.size());
-                tile_list.push_back({near, prim});
-              }
-            }
-          }
-          // Nearest first (ties by index: deterministic).
-          std::sort(tile_list.begin(), tile_list.end(), [](const Candidate& a, const Candidate& b) {
-            return a.near < b.near || (a.near == b.near && a.primitive < b.primitive);
-          });
-          const size_t base = static_cast<size_t>(tile_index) * kRays;
-          const float* trx = tile_rx.data() + base;
-          const float* try_ = tile_ry.data() + base;
-          const float* trz = tile_rz.data() + base;
-          float t_max = 0;
-          for (int j = 0; j < kRays / 4; ++j) {
-            t_best4[j] = Load4(tile_t0.data() + base + 4 * j);
-            id_best4[j] = Splat(-1.0f);
-            t_max = std::max(t_max, HMax4(t_best4[j]));
-          }
-          // Intersection, nearest candidate first; stops when every pixel of the tile already
-          // has a hit nearer than the next candidate can be.
-          for (const Candidate& cand : tile_list) {
-            if (cand.near > t_max) break;
-            const int prim = cand.primitive;
-            const PrimFrame& f = frames[prim];
-            const F4 ox = Splat(f.o[0]), oy = Splat(f.o[1]), oz = Splat(f.o[2]);
-            const F4 t_min = Splat(kTMin), inf = Splat(std::numeric_limits<float>::infinity());
-            switch (f.type) {
-              case PrimitiveType::kBox: {
-                const F4 lx = Splat(-f.h[0] - f.o[0]), hx = Splat(f.h[0] - f.o[0]);
-                const F4 ly = Splat(-f.h[1] - f.o[1]), hy = Splat(f.h[1] - f.o[1]);
-                const F4 lz = Splat(-f.h[2] - f.o[2]), hz = Splat(f.h[2] - f.o[2]);
-                const F4 one = Splat(1.0f);
-                t_max = IntersectTile(
-                    f, prim, trx, try_, trz, t_best4, id_best4, [&](F4 dx, F4 dy, F4 dz) {
-                      // Slab method (internal::RayBoxLocal), 4 rays.
-                      const F4 ix = one / dx, iy = one / dy, iz = one / dz;
-                      const F4 tx1 = lx * ix, tx2 = hx * ix;
-                      const F4 ty1 = ly * iy, ty2 = hy * iy;
-                      const F4 tz1 = lz * iz, tz2 = hz * iz;
-                      const F4 tn = Max4(Max4(Min4(tx1, tx2), Min4(ty1, ty2)), Min4(tz1, tz2));
-                      const F4 tf = Min4(Min4(Max4(tx1, tx2), Max4(ty1, ty2)), Max4(tz1, tz2));
-                      const I4 hit = (tn <= tf) & (tf > t_min);
-                      return Select(hit, Select(tn > t_min, tn, tf), inf);
-                    });
-                break;
-              }
-              case PrimitiveType::kCylinder: {
-                const F4 r = Splat(f.h[0]), hh = Splat(f.h[2]);
-                const F4 r2 = r * r;
-                const F4 zero = Splat(0.0f), eps = Splat(1e-12f);
-                t_max = IntersectTile(
-                    f, prim, trx, try_, trz, t_best4, id_best4, [&](F4 dx, F4 dy, F4 dz) {
-                      // internal::RayCylinderLocal, 4 rays.
-                      const F4 a = dx * dx + dy * dy;
-                      const F4 b = ox * dx + oy * dy;
-                      const F4 cross = ox * dy - oy * dx;
-                      const F4 disc = r2 * a - cross * cross;
-                      const F4 sq = Sqrt4(Max4(disc, zero));
-                      const F4 ia = Splat(1.0f) / Select(a > eps, a, Splat(1.0f));
-                      const F4 t1 = (-b - sq) * ia, t2 = (-b + sq) * ia;
-                      const F4 ts = Select(t1 > t_min, t1, t2);
-                      F4 best = Select(
-                          (a > eps) & (disc >= zero) & (ts > t_min) & (Abs4(oz + ts * dz) <= hh),
-                          ts, inf);
-                      const I4 axial = dz != zero;
-                      const F4 iz = Splat(1.0f) / Select(axial, dz, Splat(1.0f));
-                      for (const F4 cap : {-hh, hh}) {
-                        const F4 t = (cap - oz) * iz;
-                        const F4 x = ox + t * dx, y = oy + t * dy;
-                        best = Select(axial & (t > t_min) & (t < best) & (x * x + y * y <= r2), t,
-                                      best);
-                      }
-                      return best;
-                    });
-                break;
-              }
-              case PrimitiveType::kRectangle: {
-                const F4 hx = Splat(f.h[0]), hy = Splat(f.h[1]);
-                const F4 zero = Splat(0.0f), minus_oz = Splat(-f.o[2]);
-                t_max = IntersectTile(
-                    f, prim, trx, try_, trz, t_best4, id_best4, [&](F4 dx, F4 dy, F4 dz) {
-                      // internal::RayRectangleLocal, 4 rays.
-                      const I4 crossing = dz != zero;
-                      const F4 t = minus_oz / Select(crossing, dz, Splat(1.0f));
-                      const I4 hit = crossing & (t > t_min) & (Abs4(ox + t * dx) <= hx) &
-                                     (Abs4(oy + t * dy) <= hy);
-                      return Select(hit, t, inf);
-                    });
-                break;
-              }
-            }
-          }
-          // Shading, pass 1 (per pixel): surface point, normal, texture coordinates, footprint.
-          const float* t_best = reinterpret_cast<const float*>(t_best4);
-          const float* id_best = reinterpret_cast<const float*>(id_best4);
-          const int u0 = tx * kTile, v0 = ty * kTile;
-          const int u1 = std::min(u0 + kTile, width), v1 = std::min(v0 + kTile, height);
-          const Texture* any_texture = nullptr;
-          auto shade_pixel = [&](int k) {
-            const int prim = static_cast<int>(id_best[k]);
-            const int v = v0 + k / kTile, u = u0 + k % kTile;
-            const size_t i =
-                static_cast<size_t>(std::min(v, height - 1)) * width + std::min(u, width - 1);
-            const float cx = trx[k], cy = try_[k], cz = trz[k];
-            if (prim < 0) {
-              const bool valid = cx != 0 || cy != 0 || cz != 0;
-              sh_tex[k] = nullptr;
-              sh_u[k] = sh_v[k] = sh_fp[k] = sh_shade[k] = 0.0f;
-              sh_emit[k] = valid ? background : 0.0f;
-              sh_t[k] = std::numeric_limits<float>::infinity();
-              return;
-            }
-            const float t = t_best[k];
-            sh_t[k] = t;
-            const PrimFrame& f = frames[prim];
-            const float* m = f.m;
-            const float dx = m[0] * cx + m[1] * cy + m[2] * cz;
-            const float dy = m[3] * cx + m[4] * cy + m[5] * cz;
-            const float dz = m[6] * cx + m[7] * cy + m[8] * cz;
-            const float px = f.o[0] + t * dx, py = f.o[1] + t * dy, pz = f.o[2] + t * dz;
-            float nx = 0, ny = 0, nz = 1, su = px, sv = py;
-            if (f.type == PrimitiveType::kBox) {
-              const float ax = std::abs(px) * f.inv_h[0];
-              const float ay = std::abs(py) * f.inv_h[1];
-              const float az = std::abs(pz) * f.inv_h[2];
-              if (ax >= ay && ax >= az) {
-                nx = px > 0 ? 1.0f : -1.0f;
-                nz = 0;
-                su = py;
-                sv = pz;
-              } else if (ay >= az) {
-                ny = py > 0 ? 1.0f : -1.0f;
-                nz = 0;
-                su = px;
-                sv = pz;
-              } else {
-                nz = pz > 0 ? 1.0f : -1.0f;
-              }
-            } else if (f.type == PrimitiveType::kCylinder) {
-              const float r = f.h[0];
-              const float radial2 = px * px + py * py;
-              if (std::abs(pz) >= f.h[2] * (1 - 1e-5f) && radial2 < r * r * (1 - 1e-4f)) {
-                nz = pz > 0 ? 1.0f : -1.0f;
-              } else {
-                const float inv = 1.0f / std::sqrt(std::max(radial2, 1e-20f));
-                nx = px * inv;
-                ny = py * inv;
-                nz = 0;
-                su = std::atan2(py, px) * r;
-                sv = pz;
-              }
-            }
-            const float cos_inc = std::abs(nx * dx + ny * dy + nz * dz);
-            const float n_dot_l = nx * f.light[0] + ny * f.light[1] + nz * f.light[2];
-            sh_shade[k] = ambient + diffuse * (0.5f + 0.5f * n_dot_l);
-            sh_fp[k] = t * pixel_angle[i] / std::max(cos_inc, 0.2f);
-            sh_u[k] = su + f.uv_offset[0];
-            sh_v[k] = sv + f.uv_offset[1];
-            sh_emit[k] = f.emission;
-            sh_tex[k] = f.texture;
-            any_texture = f.texture;
-          };
-          const F4 zero4 = Splat(0.0f), one4 = Splat(1.0f), minus_one4 = Splat(-1.0f);
-          for (int k = 0; k < kRays; k += 4) {
-            const F4 ids = id_best4[k / 4];
-            const int prim = static_cast<int>(ids[0]);
-            const int v = v0 + k / kTile, u = u0 + k % kTile;
-            const bool uniform = prim >= 0 && All4(ids == Splat(ids[0])) && v < height &&
-                                 u + 4 <= width && frames[prim].type != PrimitiveType::kCylinder;
-            if (!uniform) {
-              for (int j = 0; j < 4; ++j) shade_pixel(k + j);
-              continue;
-            }
-            // The 4 pixels hit the same box or rectangle: the same computation, 4-wide.
-            const PrimFrame& f = frames[prim];
-            const size_t i = static_cast<size_t>(v) * width + u;
-            const F4 cx = Load4(trx + k), cy = Load4(try_ + k), cz = Load4(trz + k);
-            const float* m = f.m;
-            const F4 dx = Splat(m[0]) * cx + Splat(m[1]) * cy + Splat(m[2]) * cz;
-            const F4 dy = Splat(m[3]) * cx + Splat(m[4]) * cy + Splat(m[5]) * cz;
-            const F4 dz = Splat(m[6]) * cx + Splat(m[7]) * cy + Splat(m[8]) * cz;
-            const F4 t = t_best4[k / 4];
-            const F4 px = Splat(f.o[0]) + t * dx, py = Splat(f.o[1]) + t * dy,
-                     pz = Splat(f.o[2]) + t * dz;
-            F4 nx = zero4, ny = zero4, nz = one4, su = px, sv = py;
-            if (f.type == PrimitiveType::kBox) {
-              const F4 ax = Abs4(px) * Splat(f.inv_h[0]);
-              const F4 ay = Abs4(py) * Splat(f.inv_h[1]);
-              const F4 az = Abs4(pz) * Splat(f.inv_h[2]);
-              const I4 on_x = (ax >= ay) & (ax >= az);
-              const I4 on_y = ~on_x & (ay >= az);
-              const I4 on_z = ~on_x & ~on_y;
-              nx = Select(on_x, Select(px > zero4, one4, minus_one4), zero4);
-              ny = Select(on_y, Select(py > zero4, one4, minus_one4), zero4);
-              nz = Select(on_z, Select(pz > zero4, one4, minus_one4), zero4);
-              su = Select(on_x, py, px);
-              sv = Select(on_z, py, pz);
-            }
-            const F4 cos_inc = Abs4(nx * dx + ny * dy + nz * dz);
-            const F4 n_dot_l =
-                nx * Splat(f.light[0]) + ny * Splat(f.light[1]) + nz * Splat(f.light[2]);
-            Store4(sh_shade + k,
-                   Splat(ambient) + Splat(diffuse) * (Splat(0.5f) + Splat(0.5f) * n_dot_l));
-            Store4(sh_fp + k, t * Load4(pixel_angle.data() + i) / Max4(cos_inc, Splat(0.2f)));
-            Store4(sh_u + k, su + Splat(f.uv_offset[0]));
-            Store4(sh_v + k, sv + Splat(f.uv_offset[1]));
-            Store4(sh_emit + k, Splat(f.emission));
-            Store4(sh_t + k, t);
-            for (int j = 0; j < 4; ++j) sh_tex[k + j] = f.texture;
-            any_texture = f.texture;
-          }
-          // Pass 2 (4 pixels at a time): texel addresses (prefetched) for the whole tile, then
-          // the trilinear samples and the radiance.
-          for (int g = 0; g < kRays / 4; ++g) {
-            const int k = 4 * g;
-            has_texture[g] = any_texture != nullptr &&
-                             (sh_tex[k] || sh_tex[k + 1] || sh_tex[k + 2] || sh_tex[k + 3]);
-            if (!has_texture[g]) continue;
-            const Texture* tex[4];
-            for (int j = 0; j < 4; ++j) tex[j] = sh_tex[k + j] ? sh_tex[k + j] : any_texture;
-            TexAddress4(tex, Load4(sh_u + k), Load4(sh_v + k), Load4(sh_fp + k), &lookups[g]);
-          }
-          for (int g = 0; g < kRays / 4; ++g) {
-            const int k = 4 * g;
-            F4 value = Load4(sh_emit + k);
-            if (has_texture[g]) value += TexFetch4(lookups[g]) * Load4(sh_shade + k);
-            Store4(sh_rad + k, value);
-          }
-          for (int v = v0; v < v1; ++v) {
-            const size_t i = static_cast<size_t>(v) * width + u0;
-            const int k = (v - v0) * kTile;
-            std::copy(sh_rad + k, sh_rad + k + (u1 - u0), radiance + i);
-            if (range) std::copy(sh_t + k, sh_t + k + (u1 - u0), range + i);
-          }
-        }
-      }
-    }
-  }
+  RenderFrame rf;
+  rf.width = width;
+  rf.height = height;
+  rf.tiles_x = tiles_x;
+  rf.tiles_y = tiles_y;
+  rf.supers_x = supers_x;
+  rf.supers_y = supers_y;
+  rf.tile_rx = tile_rx.data();
+  rf.tile_ry = tile_ry.data();
+  rf.tile_rz = tile_rz.data();
+  rf.tile_t0 = tile_t0.data();
+  rf.pixel_angle = pixel_angle.data();
+  rf.tile_cones = tile_cones.data();
+  rf.super_cones = super_cones.data();
+  rf.proxies = proxies.data();
+  rf.spheres = spheres.data();
+  rf.num_spheres = np;
+  rf.frames = frames.data();
+  rf.num_prims = frames.size();
+  rf.background = static_cast<float>(lighting.background);
+  rf.ambient = static_cast<float>(lighting.ambient);
+  rf.diffuse = static_cast<float>(lighting.diffuse);
+#if defined(MAV_SIM_HAVE_AVX2)
+  if (avx2) return lanes8::RenderTiles(rf, radiance, range);
+#endif
+  lanes4::RenderTiles(rf, radiance, range);
 }
 
 void FormImage(const std::vector<float>& radiance, int width, int height, double gain,

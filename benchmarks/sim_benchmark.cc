@@ -93,12 +93,13 @@ const Parts& GetParts(const std::string& preset) {
   return *cache.emplace(preset, std::move(parts)).first->second;
 }
 
-// `lanes`: 8 (AVX2, where the CPU has it: the default) or 4 (SSE2), the same images.
+// `lanes`: 16 (AVX-512), 8 (AVX2) or 4 (SSE2) where the CPU has them (the default: the widest),
+// the same images.
 void BM_Radiance(benchmark::State& state, const std::string& preset, int lanes) {
   const Parts& parts = GetParts(preset);
   mav::sim::CameraRenderer renderer(parts.world, parts.renderer->camera());
-  renderer.UseAvx2(lanes == 8);
-  if (lanes == 8 && !renderer.UsesAvx2()) return state.SkipWithError("this CPU has no AVX2");
+  renderer.SetSimdLanes(lanes);
+  if (renderer.simd_lanes() != lanes) return state.SkipWithError("this CPU lacks the instructions");
   std::vector<float> radiance, range;
   size_t k = 0;
   for (auto _ : state) {
@@ -111,8 +112,8 @@ void BM_Radiance(benchmark::State& state, const std::string& preset, int lanes) 
 void BM_Blur(benchmark::State& state, const std::string& preset, int lanes) {
   const Parts& parts = GetParts(preset);
   mav::sim::CameraRenderer renderer(parts.world, parts.renderer->camera());
-  renderer.UseAvx2(lanes == 8);
-  if (lanes == 8 && !renderer.UsesAvx2()) return state.SkipWithError("this CPU has no AVX2");
+  renderer.SetSimdLanes(lanes);
+  if (renderer.simd_lanes() != lanes) return state.SkipWithError("this CPU lacks the instructions");
   std::vector<std::vector<float>> radiance(parts.mid.size()), range(parts.mid.size());
   for (size_t k = 0; k < parts.mid.size(); ++k)
     renderer.RenderRadiance(parts.mid[k], &radiance[k], &range[k]);
@@ -134,18 +135,22 @@ void BM_FormImage(benchmark::State& state, const std::string& preset, int lanes)
   uint64_t key = 0;
   for (auto _ : state) {
     mav::sim::FormImage(radiance, parts.renderer->width(), parts.renderer->height(), 1.1,
-                        parts.effects.noise_sigma, ++key, &image, lanes == 8);
+                        parts.effects.noise_sigma, ++key, &image, lanes);
     benchmark::DoNotOptimize(image.data);
   }
 }
 // clang-format off
-BENCHMARK_CAPTURE(BM_Radiance, room-hard, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, room-hard/16-lanes, std::string("room-hard"), 16)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, room-hard/8-lanes, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Radiance, room-hard/4-lanes, std::string("room-hard"), 4)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Blur, room-hard, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Blur, room-hard/16-lanes, std::string("room-hard"), 16)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Blur, room-hard/8-lanes, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Blur, room-hard/4-lanes, std::string("room-hard"), 4)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_FormImage, room-hard, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FormImage, room-hard/16-lanes, std::string("room-hard"), 16)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_FormImage, room-hard/8-lanes, std::string("room-hard"), 8)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_FormImage, room-hard/4-lanes, std::string("room-hard"), 4)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_Radiance, plant, std::string("plant"), 8)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, plant/16-lanes, std::string("plant"), 16)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(BM_Radiance, plant/8-lanes, std::string("plant"), 8)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_Radiance, plant/4-lanes, std::string("plant"), 4)->Unit(benchmark::kMillisecond);
 // clang-format on
 

@@ -309,7 +309,7 @@ MAV_SIM_INLINE V LevelFetch(const uint16_t* const q[4], V ax, V ay) {
 
 #if defined(MAV_SIM_HAVE_AVX2)
 // The kernels 8 lanes wide, AVX2 (no FMA: the same roundings as the 4 lanes), compiled for
-// AVX2 here and run only where the CPU has it (CpuHasAvx2).
+// AVX2 here and run only where the CPU has it (CpuLanes).
 #if defined(__clang__)
 #pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
 #else
@@ -327,7 +327,10 @@ MAV_SIM_INLINE V Load(const float* p) {
   return v;
 }
 MAV_SIM_INLINE void Store(float* p, V v) { std::memcpy(p, &v, sizeof(v)); }
-MAV_SIM_INLINE V Select(VI m, V a, V b) { return (V)(((VI)a & m) | ((VI)b & ~m)); }
+// m: comparison results (all bits set or clear per lane).
+MAV_SIM_INLINE V Select(VI m, V a, V b) {
+  return (V)_mm256_blendv_ps((__m256)b, (__m256)a, (__m256)m);
+}
 MAV_SIM_INLINE V Min(V a, V b) { return (V)_mm256_min_ps((__m256)a, (__m256)b); }
 MAV_SIM_INLINE V Max(V a, V b) { return (V)_mm256_max_ps((__m256)a, (__m256)b); }
 MAV_SIM_INLINE V Abs(V a) { return (V)((VI)a & 0x7fffffff); }
@@ -465,15 +468,166 @@ void FormRows(const float* in, int width, int height, const lanes4::FormConsts& 
 #else
 #pragma GCC pop_options
 #endif
+
+// The kernels 16 lanes wide, AVX-512 (F and DQ; no FMA), run only where the CPU has it
+// (CpuLanes). Where a blur group's segments leave the image, it is done as two groups of 8.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2,avx512f,avx512dq"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2,avx512f,avx512dq")
+#endif
+namespace lanes16 {
+typedef float V __attribute__((vector_size(64)));
+typedef int32_t VI __attribute__((vector_size(64)));
+constexpr int kLanes = 16;
+MAV_SIM_INLINE V Splat(float x) { return (V)_mm512_set1_ps(x); }
+MAV_SIM_INLINE V Load(const float* p) {
+  V v;
+  std::memcpy(&v, p, sizeof(v));
+  return v;
+}
+MAV_SIM_INLINE void Store(float* p, V v) { std::memcpy(p, &v, sizeof(v)); }
+MAV_SIM_INLINE int Mask(VI m) { return _mm512_movepi32_mask((__m512i)m); }
+// m: comparison results (all bits set or clear per lane).
+MAV_SIM_INLINE V Select(VI m, V a, V b) {
+  return (V)_mm512_mask_blend_ps(static_cast<__mmask16>(Mask(m)), (__m512)b, (__m512)a);
+}
+// minps / maxps semantics (the second operand when either is NaN), without GCC 12's
+// _mm512_min_ps (its undefined pass-through operand warns: GCC bug 105593).
+MAV_SIM_INLINE V Min(V a, V b) { return Select(a < b, a, b); }
+MAV_SIM_INLINE V Max(V a, V b) { return Select(a > b, a, b); }
+MAV_SIM_INLINE V Abs(V a) { return (V)((VI)a & 0x7fffffff); }
+MAV_SIM_INLINE V Sqrt(V a) {  // (the masked forms: see Min)
+  return (V)_mm512_mask_sqrt_ps((__m512)a, 0xffff, (__m512)a);
+}
+MAV_SIM_INLINE VI Trunc(V a) { return __builtin_convertvector(a, VI); }
+MAV_SIM_INLINE V ToFloat(VI a) { return __builtin_convertvector(a, V); }
+MAV_SIM_INLINE bool All(VI m) { return Mask(m) == 0xffff; }
+MAV_SIM_INLINE lanes8::V Low(V a) {
+  lanes8::V r;
+  std::memcpy(&r, &a, sizeof(r));
+  return r;
+}
+MAV_SIM_INLINE lanes8::V High(V a) {
+  lanes8::V r;
+  std::memcpy(&r, reinterpret_cast<const char*>(&a) + sizeof(r), sizeof(r));
+  return r;
+}
+MAV_SIM_INLINE float HMax(V a) { return lanes8::HMax(lanes8::Max(Low(a), High(a))); }
+MAV_SIM_INLINE V LaneIndex() { return V{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15}; }
+MAV_SIM_INLINE V Join(lanes8::V lo, lanes8::V hi) {
+  V r;
+  std::memcpy(&r, &lo, sizeof(lo));
+  std::memcpy(reinterpret_cast<char*>(&r) + sizeof(lo), &hi, sizeof(hi));
+  return r;
+}
+MAV_SIM_INLINE V Bilinear(const float* img, const VI& idx, size_t stride, V ax, V ay) {
+  V tl, tr, bl, br;
+  const int i0 = idx[0];
+  if (All(idx == i0 + VI{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15})) {
+    const float* p = img + i0;  // 16 neighbours in a row: the common case
+    tl = Load(p);
+    tr = Load(p + 1);
+    bl = Load(p + stride);
+    br = Load(p + stride + 1);
+  } else {
+    const __m512i vi = (__m512i)idx;
+    const __m512 zero = _mm512_setzero_ps();
+    tl = (V)_mm512_mask_i32gather_ps(zero, 0xffff, vi, img, 4);
+    tr = (V)_mm512_mask_i32gather_ps(zero, 0xffff, vi, img + 1, 4);
+    bl = (V)_mm512_mask_i32gather_ps(zero, 0xffff, vi, img + stride, 4);
+    br = (V)_mm512_mask_i32gather_ps(zero, 0xffff, vi, img + stride + 1, 4);
+  }
+  const V top = tl + ax * (tr - tl);
+  const V bottom = bl + ax * (br - bl);
+  return top + ay * (bottom - top);
+}
+MAV_SIM_INLINE V LevelFetch(const uint16_t* const q[16], V ax, V ay) {
+  return Join(lanes8::LevelFetch(q, Low(ax), Low(ay)),
+              lanes8::LevelFetch(q + 8, High(ax), High(ay)));
+}
+#include "renderer_lanes.inc"
+
+// Pixels u .. u + 15 of row v: 16 lanes where all segments stay inside the image, else as two
+// groups of 8 (which decide as their groups of 4 do).
+MAV_SIM_INLINE V BlurLanesAs4(const BlurFrame& b, const BlurConsts& c, const lanes8::BlurConsts& c8,
+                              const lanes4::BlurConsts& c4, int v, int u) {
+  Segments s;
+  if (!SegmentsOf(b, c, v, u, &s)) return s.sharp;
+  if (All(SegmentsInside(c, s, Splat(static_cast<float>(s.n_max - 1))))) {
+    return IntegrateInside(b, c, s);
+  }
+  return Join(lanes8::BlurLanesAs4(b, c8, c4, v, u), lanes8::BlurLanesAs4(b, c8, c4, v, u + 8));
+}
+
+void BlurRows(const BlurFrame& b, float* out) {
+  const BlurConsts c = MakeBlurConsts(b);
+  const lanes8::BlurConsts c8 = lanes8::MakeBlurConsts(b);
+  const lanes4::BlurConsts c4 = lanes4::MakeBlurConsts(b);
+  for (int v = 0; v < b.h; ++v) {
+    const size_t row = static_cast<size_t>(v) * b.w;
+    int u = 0;
+    for (; u + 16 <= b.w; u += 16) Store(out + row + u, BlurLanesAs4(b, c, c8, c4, v, u));
+    for (; u + 8 <= b.w; u += 8)
+      lanes8::Store(out + row + u, lanes8::BlurLanesAs4(b, c8, c4, v, u));
+    for (; u < b.w; u += 4) {
+      const lanes4::V r = lanes4::BlurLanes(b, c4, v, u);
+      for (int j = 0; j < 4 && u + j < b.w; ++j) out[row + u + j] = r[j];
+    }
+  }
+  _mm256_zeroupper();
+}
+
+// FormImage, 16 pixels per step (the values are bytes: vpmovdb's truncation is exact).
+void FormRows(const float* in, int width, int height, const lanes4::FormConsts& f4,
+              cv::Mat* image) {
+  const FormConsts f{Splat(f4.scale[0]), Splat(f4.noise_scale[0]), f4.key_lo, f4.key_hi};
+  for (int v = 0; v < height; ++v) {
+    uint8_t* row = image->ptr<uint8_t>(v);
+    const size_t row_start = static_cast<size_t>(v) * width;
+    int u = 0;
+    for (; u + 16 <= width; u += 16) {
+      const size_t i = row_start + u;
+      const VI q = FormLanes(f, Load(in + i), i);
+      typedef int8_t Bytes __attribute__((vector_size(16)));
+      const Bytes bytes = __builtin_convertvector(q, Bytes);
+      std::memcpy(row + u, &bytes, sizeof(bytes));
+    }
+    for (; u < width; u += 4) {
+      const size_t i = row_start + u;
+      F4 r = ::mav::sim::Splat(0.0f);
+      for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
+      const I4 q = lanes4::FormLanes(f4, r, i);
+      for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
+    }
+  }
+  _mm256_zeroupper();
+}
+}  // namespace lanes16
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
 #endif  // MAV_SIM_HAVE_AVX2
 
-bool CpuHasAvx2() {
+// The widest kernels this CPU runs: 16 (AVX-512 F and DQ), 8 (AVX2) or 4 lanes.
+int CpuLanes() {
 #if defined(MAV_SIM_HAVE_AVX2)
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
+  static const int lanes = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq")
+                               ? 16
+                           : __builtin_cpu_supports("avx2") ? 8
+                                                            : 4;
+  return lanes;
 #else
-  return false;
+  return 4;
 #endif
+}
+
+int ChooseLanes(int max_lanes) {
+  const int cpu = CpuLanes();
+  return max_lanes >= 16 ? cpu : max_lanes >= 8 ? std::min(cpu, 8) : 4;
 }
 
 }  // namespace
@@ -493,7 +647,7 @@ struct CameraRenderer::Impl {
   std::vector<Cone> tile_cones, super_cones;
   std::vector<Proxy> proxies;
   std::vector<const Texture*> textures;  // per material
-  bool avx2 = false;                     // the 8-lane kernels (CpuHasAvx2())
+  int lanes = 4;                         // kernels: 4, 8 or 16 lanes (ChooseLanes)
 
   void Render(const geometry::SE3& T_world_cam, float* radiance, float* range) const;
 };
@@ -507,7 +661,7 @@ CameraRenderer::CameraRenderer(std::shared_ptr<const World> world,
   MAV_CHECK(camera.IsValid(&why)) << why;
   s.world = std::move(world);
   s.camera = camera;
-  s.avx2 = CpuHasAvx2();
+  s.lanes = CpuLanes();
   s.width = camera.width;
   s.height = camera.height;
   const size_t n = static_cast<size_t>(s.width) * s.height;
@@ -582,8 +736,8 @@ CameraRenderer::CameraRenderer(CameraRenderer&&) noexcept = default;
 CameraRenderer& CameraRenderer::operator=(CameraRenderer&&) noexcept = default;
 
 const camera::PinholeRadTan& CameraRenderer::camera() const { return impl_->camera; }
-void CameraRenderer::UseAvx2(bool on) { impl_->avx2 = on && CpuHasAvx2(); }
-bool CameraRenderer::UsesAvx2() const { return impl_->avx2; }
+void CameraRenderer::SetSimdLanes(int max_lanes) { impl_->lanes = ChooseLanes(max_lanes); }
+int CameraRenderer::simd_lanes() const { return impl_->lanes; }
 int CameraRenderer::width() const { return impl_->width; }
 int CameraRenderer::height() const { return impl_->height; }
 
@@ -658,7 +812,8 @@ void CameraRenderer::BlurByReprojection(const std::vector<float>& sharp,
   b.p2 = static_cast<float>(cam.p2);
   float* out = blurred->data();
 #if defined(MAV_SIM_HAVE_AVX2)
-  if (s.avx2) return lanes8::BlurRows(b, out);
+  if (s.lanes == 16) return lanes16::BlurRows(b, out);
+  if (s.lanes == 8) return lanes8::BlurRows(b, out);
 #endif
   const lanes4::BlurConsts c = lanes4::MakeBlurConsts(b);
   for (int v = 0; v < h; ++v) {
@@ -736,13 +891,15 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
   rf.ambient = static_cast<float>(lighting.ambient);
   rf.diffuse = static_cast<float>(lighting.diffuse);
 #if defined(MAV_SIM_HAVE_AVX2)
-  if (avx2) return lanes8::RenderTiles(rf, radiance, range);
+  // 8 lanes at most: with 16 (a whole tile row a group) fewer groups share a primitive and a
+  // texture level, and the 16-lane tile loop measured slower (docs/benchmarks.md).
+  if (lanes >= 8) return lanes8::RenderTiles(rf, radiance, range);
 #endif
   lanes4::RenderTiles(rf, radiance, range);
 }
 
 void FormImage(const std::vector<float>& radiance, int width, int height, double gain,
-               double noise_sigma, uint64_t noise_key, cv::Mat* image, bool use_avx2) {
+               double noise_sigma, uint64_t noise_key, cv::Mat* image, int max_lanes) {
   MAV_CHECK(image != nullptr);
   MAV_CHECK(radiance.size() == static_cast<size_t>(width) * height);
   image->create(height, width, CV_8UC1);
@@ -754,13 +911,12 @@ void FormImage(const std::vector<float>& radiance, int width, int height, double
   const uint32_t key_lo = static_cast<uint32_t>(key), key_hi = static_cast<uint32_t>(key >> 32);
   const lanes4::FormConsts f4{Splat(scale), Splat(noise_scale), key_lo, key_hi};
   const float* in = radiance.data();
+  const int lanes = ChooseLanes(max_lanes);
 #if defined(MAV_SIM_HAVE_AVX2)
-  if (use_avx2 && CpuHasAvx2()) {
-    return lanes8::FormRows(in, width, height, f4, image);
-  }
-#else
-  (void)use_avx2;
+  if (lanes == 16) return lanes16::FormRows(in, width, height, f4, image);
+  if (lanes == 8) return lanes8::FormRows(in, width, height, f4, image);
 #endif
+  (void)lanes;
   for (int v = 0; v < height; ++v) {
     uint8_t* row = image->ptr<uint8_t>(v);
     const size_t row_start = static_cast<size_t>(v) * width;

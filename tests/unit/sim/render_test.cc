@@ -379,39 +379,47 @@ TEST(RenderTest, ReprojectionBlurApproximatesSubFrameIntegration) {
   EXPECT_LT(p95, 0.02f);  // 5 DN at gain 1
 }
 
-TEST(RenderTest, EightLaneKernelsGiveTheFourLaneBits) {
-  // The AVX2 kernels (8 lanes) against the SSE2 ones (4 lanes): the same bits for the radiance,
-  // the range, the blur and the 8-bit image, over motions from still to fast enough that the
-  // blur's segments leave the image (the clamped path and groups of 8 that split into 4s), on
-  // the EuRoC camera and on one whose width is not a multiple of 8 (the row tails).
+TEST(RenderTest, WideKernelsGiveTheFourLaneBits) {
+  // The AVX2 (8 lanes) and AVX-512 (16) kernels against the SSE2 ones (4 lanes): the same bits
+  // for the radiance, the range, the blur and the 8-bit image, over motions from still to fast
+  // enough that the blur's segments leave the image (the clamped path, and wide groups that
+  // split into groups of 4), on the EuRoC camera and on one whose width is not a multiple of 16
+  // (the row tails).
   std::shared_ptr<World> world = MakeClutterWorld();
   camera::PinholeRadTan odd = camera::EurocCam0();
   odd.width = 749;
   odd.height = 477;
-  for (const camera::PinholeRadTan& cam : {camera::EurocCam0(), odd}) {
-    CameraRenderer wide(world, cam), narrow(world, cam);
-    if (!wide.UsesAvx2()) GTEST_SKIP() << "this CPU has no AVX2";
-    narrow.UseAvx2(false);
-    ASSERT_FALSE(narrow.UsesAvx2());
-    for (const double speed : {0.0, 0.3, 1.0, 4.0}) {
-      auto pose = [&](double s) {
-        const Eigen::Quaterniond q(Eigen::AngleAxisd(
-            0.1 + 0.026 * speed * s, Eigen::Vector3d(0.3, 1, 0.1 + 0.2 * speed).normalized()));
-        return geometry::SE3(q, Eigen::Vector3d(0.05 + 0.05 * speed * s, 0.1, -0.2));
-      };
-      std::vector<float> sharp8, range8, sharp4, range4, blur8, blur4;
-      wide.RenderRadiance(pose(0), &sharp8, &range8);
-      narrow.RenderRadiance(pose(0), &sharp4, &range4);
-      const size_t bytes = sharp8.size() * sizeof(float);
-      EXPECT_EQ(std::memcmp(sharp8.data(), sharp4.data(), bytes), 0) << "radiance, " << speed;
-      EXPECT_EQ(std::memcmp(range8.data(), range4.data(), bytes), 0) << "range, " << speed;
-      wide.BlurByReprojection(sharp4, range4, pose(0), pose(-0.5), pose(0.5), 16, &blur8);
-      narrow.BlurByReprojection(sharp4, range4, pose(0), pose(-0.5), pose(0.5), 16, &blur4);
-      EXPECT_EQ(std::memcmp(blur8.data(), blur4.data(), bytes), 0) << "blur, " << speed;
-      cv::Mat image8, image4;
-      FormImage(blur4, cam.width, cam.height, 1.1, 2.0, 5, &image8, true);
-      FormImage(blur4, cam.width, cam.height, 1.1, 2.0, 5, &image4, false);
-      EXPECT_EQ(cv::norm(image8, image4, cv::NORM_INF), 0) << "image, " << speed;
+  CameraRenderer probe(world, odd);
+  if (probe.simd_lanes() == 4) GTEST_SKIP() << "this CPU has neither AVX2 nor AVX-512";
+  for (const int lanes : {8, 16}) {
+    for (const camera::PinholeRadTan& cam : {camera::EurocCam0(), odd}) {
+      CameraRenderer wide(world, cam), narrow(world, cam);
+      wide.SetSimdLanes(lanes);
+      if (wide.simd_lanes() != lanes) continue;  // no AVX-512 here
+      narrow.SetSimdLanes(4);
+      ASSERT_EQ(narrow.simd_lanes(), 4);
+      for (const double speed : {0.0, 0.3, 1.0, 4.0}) {
+        SCOPED_TRACE(testing::Message()
+                     << lanes << " lanes, width " << cam.width << ", speed " << speed);
+        auto pose = [&](double s) {
+          const Eigen::Quaterniond q(Eigen::AngleAxisd(
+              0.1 + 0.026 * speed * s, Eigen::Vector3d(0.3, 1, 0.1 + 0.2 * speed).normalized()));
+          return geometry::SE3(q, Eigen::Vector3d(0.05 + 0.05 * speed * s, 0.1, -0.2));
+        };
+        std::vector<float> sharp_w, range_w, sharp_n, range_n, blur_w, blur_n;
+        wide.RenderRadiance(pose(0), &sharp_w, &range_w);
+        narrow.RenderRadiance(pose(0), &sharp_n, &range_n);
+        const size_t bytes = sharp_w.size() * sizeof(float);
+        EXPECT_EQ(std::memcmp(sharp_w.data(), sharp_n.data(), bytes), 0) << "radiance";
+        EXPECT_EQ(std::memcmp(range_w.data(), range_n.data(), bytes), 0) << "range";
+        wide.BlurByReprojection(sharp_n, range_n, pose(0), pose(-0.5), pose(0.5), 16, &blur_w);
+        narrow.BlurByReprojection(sharp_n, range_n, pose(0), pose(-0.5), pose(0.5), 16, &blur_n);
+        EXPECT_EQ(std::memcmp(blur_w.data(), blur_n.data(), bytes), 0) << "blur";
+        cv::Mat image_w, image_n;
+        FormImage(blur_n, cam.width, cam.height, 1.1, 2.0, 5, &image_w, lanes);
+        FormImage(blur_n, cam.width, cam.height, 1.1, 2.0, 5, &image_n, 4);
+        EXPECT_EQ(cv::norm(image_w, image_n, cv::NORM_INF), 0) << "image";
+      }
     }
   }
 }

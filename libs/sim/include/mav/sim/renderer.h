@@ -45,10 +45,11 @@ class CameraRenderer {
   int width() const;
   int height() const;
 
-  // The 8-lane (AVX2) kernels, on by default where the CPU has AVX2; off: the 4-lane (SSE2)
-  // ones. The images are the same bits either way (render_test checks it).
-  void UseAvx2(bool on);
-  bool UsesAvx2() const;
+  // The width of the per-pixel kernels: the widest the CPU has of 16 lanes (AVX-512), 8 (AVX2)
+  // and 4 (SSE2), up to `max_lanes` (default: the widest). The images are the same bits at
+  // every width (render_test checks it).
+  void SetSimdLanes(int max_lanes);
+  int simd_lanes() const;
 
   // Scene radiance per pixel (row-major, width*height; 1.0 = a white surface under full light)
   // seen from T_world_cam. `range` (optional) receives the distance along the ray in metres
@@ -83,9 +84,9 @@ class CameraRenderer {
 // approximated by a scaled sum of four uniforms (Irwin-Hall: the four bytes of a 32-bit
 // counter-based hash of (noise_key, pixel index)): deterministic and independent of thread
 // scheduling.
-// Writes a CV_8UC1 image of width x height. `use_avx2`: 8 lanes where the CPU has AVX2 (the
-// same bytes as 4).
+// Writes a CV_8UC1 image of width x height. `max_lanes`: as CameraRenderer::SetSimdLanes (the
+// same bytes at every width).
 void FormImage(const std::vector<float>& radiance, int width, int height, double gain,
-               double noise_sigma, uint64_t noise_key, cv::Mat* image, bool use_avx2 = true);
+               double noise_sigma, uint64_t noise_key, cv::Mat* image, int max_lanes = 16);
 
 }  // namespace mav::sim

@@ -263,6 +263,7 @@ struct RenderFrame {
   const PrimFrame* frames;  // per primitive
   size_t num_prims;
   float background, ambient, diffuse;
+  bool exact_atan2;  // CameraRenderer::SetExactCylinderAngles
 };
 
 #define MAV_SIM_INLINE inline __attribute__((always_inline))
@@ -648,6 +649,7 @@ struct CameraRenderer::Impl {
   std::vector<Proxy> proxies;
   std::vector<const Texture*> textures;  // per material
   int lanes = 4;                         // kernels: 4, 8 or 16 lanes (ChooseLanes)
+  bool exact_atan2 = false;              // SetExactCylinderAngles
 
   void Render(const geometry::SE3& T_world_cam, float* radiance, float* range) const;
 };
@@ -738,6 +740,7 @@ CameraRenderer& CameraRenderer::operator=(CameraRenderer&&) noexcept = default;
 const camera::PinholeRadTan& CameraRenderer::camera() const { return impl_->camera; }
 void CameraRenderer::SetSimdLanes(int max_lanes) { impl_->lanes = ChooseLanes(max_lanes); }
 int CameraRenderer::simd_lanes() const { return impl_->lanes; }
+void CameraRenderer::SetExactCylinderAngles(bool exact) { impl_->exact_atan2 = exact; }
 int CameraRenderer::width() const { return impl_->width; }
 int CameraRenderer::height() const { return impl_->height; }
 
@@ -890,6 +893,7 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
   rf.background = static_cast<float>(lighting.background);
   rf.ambient = static_cast<float>(lighting.ambient);
   rf.diffuse = static_cast<float>(lighting.diffuse);
+  rf.exact_atan2 = exact_atan2;
 #if defined(MAV_SIM_HAVE_AVX2)
   // 8 lanes at most: with 16 (a whole tile row a group) fewer groups share a primitive and a
   // texture level, and the 16-lane tile loop measured slower (docs/benchmarks.md).
@@ -943,5 +947,7 @@ void FormImage(const std::vector<float>& radiance, int width, int height, double
     }
   }
 }
+
+float internal::LaneAtan2(float y, float x) { return lanes4::Atan2(Splat(y), Splat(x))[0]; }
 
 }  // namespace mav::sim

@@ -103,6 +103,7 @@ Result<Scenario> Scenario::Create(const ScenarioOptions& options) {
   }
   impl->trajectory = std::move(trajectory).value();
   impl->calibration = options.rectified ? RectifiedRig() : camera::EurocStereoCalibration();
+  preset.effects.exact_cylinder_angles = options.exact_cylinder_angles;
   impl->rig = std::make_unique<StereoRigRenderer>(impl->world, impl->calibration, preset.effects,
                                                   options.seed, preset.min_clearance);
   impl->preset = std::move(preset);

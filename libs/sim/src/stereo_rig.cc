@@ -25,6 +25,7 @@ StereoRigRenderer::StereoRigRenderer(std::shared_ptr<const World> world,
   MAV_CHECK(world_ != nullptr);
   cameras_[0] = std::make_unique<CameraRenderer>(world_, rig_.cam0);
   cameras_[1] = std::make_unique<CameraRenderer>(world_, rig_.cam1);
+  for (auto& camera : cameras_) camera->SetExactCylinderAngles(effects_.exact_cylinder_angles);
 }
 
 StereoRigRenderer::~StereoRigRenderer() = default;

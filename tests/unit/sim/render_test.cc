@@ -233,39 +233,94 @@ TEST(RenderTest, ScenarioImagesAreDeterministicAndSeedDependent) {
   EXPECT_GT(cv::norm(l1, l4, cv::NORM_L1), 0);
 }
 
-// Today's images, pinned (issue 26): a faster renderer must produce these bytes, or change this
-// test with the reason and the measured difference. One mid-flight stereo pair per preset
-// (40 frames, seed 1, frame 23: motion-blurred on the blurred presets), hashed (FNV-1a, 64 bit,
-// left then right). The bytes are the GCC build's (the services' and the benchmarks'): the clang
-// sanitizer tree's floating point differs (other hashes on all four presets): skipped there.
+// FNV-1a (64 bit) of the pair's bytes, left then right.
+uint64_t HashPair(const cv::Mat& left, const cv::Mat& right) {
+  uint64_t hash = 1469598103934665603ull;
+  for (const cv::Mat* image : {&left, &right}) {
+    const uint8_t* p = image->ptr<uint8_t>();
+    for (size_t i = 0; i < image->total(); ++i) hash = (hash ^ p[i]) * 1099511628211ull;
+  }
+  return hash;
+}
+
+// The images of before issue 26, pinned: a faster renderer must produce these bytes, or change
+// this test with the reason and the measured difference. One mid-flight stereo pair per preset
+// (40 frames, seed 1, frame 23: motion-blurred on the blurred presets), hashed. The reference
+// rendering (std::atan2 for the cylinders' texture angle) gives them bit for bit; the default
+// one (the renderer's own atan2, 3e-7 rad from std::atan2) differs by at most 1 DN on a few
+// pixels, bounded here, and is pinned too. The bytes are the GCC build's (the services' and
+// the benchmarks'): the clang sanitizer tree's floating point differs (other hashes on all four
+// presets): skipped there.
 TEST(RenderTest, RenderedPairsArePinnedPerPreset) {
 #if defined(__clang__)
   GTEST_SKIP() << "clang build: the pinned bytes are the GCC build's";
 #endif
-  const std::pair<const char*, uint64_t> pinned[] = {
-      {"room-easy", 0x80277828573373ffull},
-      {"room-medium", 0x64b7ada33fd590b6ull},
-      {"room-hard", 0xa7d43e8419496983ull},
-      {"plant", 0xff848806c288da72ull},
+  struct Pinned {
+    const char* preset;
+    uint64_t reference, fast;
   };
-  for (const auto& [preset, expected] : pinned) {
+  const Pinned pinned[] = {
+      {"room-easy", 0x80277828573373ffull, 0x80277828573373ffull},
+      {"room-medium", 0x64b7ada33fd590b6ull, 0x64b7ada33fd590b6ull},
+      {"room-hard", 0xa7d43e8419496983ull, 0xa7d43e8419496983ull},
+      {"plant", 0xff848806c288da72ull, 0xb39359b6c429b314ull},  // 2 + 2 pixels, 1 DN
+  };
+  for (const Pinned& p : pinned) {
     ScenarioOptions o;
-    o.preset = preset;
+    o.preset = p.preset;
     o.frames = 40;
     o.seed = 1;
-    Result<Scenario> s = Scenario::Create(o);
-    ASSERT_TRUE(s.ok()) << s.status().ToString();
-    cv::Mat left, right;
-    s->RenderStereo(23, &left, &right);
-    ASSERT_TRUE(left.isContinuous() && right.isContinuous());
-    uint64_t hash = 1469598103934665603ull;
-    for (const cv::Mat* image : {&left, &right}) {
-      const uint8_t* p = image->ptr<uint8_t>();
-      for (size_t i = 0; i < image->total(); ++i) hash = (hash ^ p[i]) * 1099511628211ull;
+    cv::Mat left[2], right[2];
+    for (const bool exact : {true, false}) {
+      o.exact_cylinder_angles = exact;
+      Result<Scenario> s = Scenario::Create(o);
+      ASSERT_TRUE(s.ok()) << s.status().ToString();
+      s->RenderStereo(23, &left[exact], &right[exact]);
+      ASSERT_TRUE(left[exact].isContinuous() && right[exact].isContinuous());
     }
-    EXPECT_EQ(hash, expected) << preset << ": the rendered pair changed (hash 0x" << std::hex
-                              << hash << ")";
+    const uint64_t reference = HashPair(left[1], right[1]), fast = HashPair(left[0], right[0]);
+    EXPECT_EQ(reference, p.reference)
+        << p.preset << ": the reference pair changed (hash 0x" << std::hex << reference << ")";
+    EXPECT_EQ(fast, p.fast) << p.preset << ": the pair changed (hash 0x" << std::hex << fast << ")";
+    for (int c = 0; c < 2; ++c) {
+      const cv::Mat& a = c == 0 ? left[0] : right[0];
+      const cv::Mat& b = c == 0 ? left[1] : right[1];
+      const double differing = cv::countNonZero(a != b);
+      std::printf("%s camera %d: %.0f pixels differ from the reference, at most %.0f DN\n",
+                  p.preset, c, differing, cv::norm(a, b, cv::NORM_INF));
+      EXPECT_LE(cv::norm(a, b, cv::NORM_INF), 1) << p.preset;
+      EXPECT_LE(differing, 1e-3 * static_cast<double>(a.total())) << p.preset;
+    }
   }
+}
+
+TEST(RenderTest, LaneAtan2IsWithinThreeTenthsOfAMicroradianOfStdAtan2) {
+  // Every direction (1e6 angles over the circle, the axes and diagonals exactly) at radii from
+  // millimetres to kilometres.
+  double worst = 0;
+  for (const float radius : {1e-3f, 0.016f, 1.2f, 7.0f, 1e3f}) {
+    for (int k = 0; k < 1000000; ++k) {
+      const double a = -M_PI + 2 * M_PI * k / 1000000;
+      const float x = static_cast<float>(radius * std::cos(a));
+      const float y = static_cast<float>(radius * std::sin(a));
+      worst = std::max(worst, std::abs(static_cast<double>(internal::LaneAtan2(y, x)) -
+                                       std::atan2(static_cast<double>(y), x)));
+    }
+    for (const auto& [x, y] : {std::pair{1.0f, 0.0f},
+                               {0.0f, 1.0f},
+                               {-1.0f, 0.0f},
+                               {0.0f, -1.0f},
+                               {1.0f, 1.0f},
+                               {-1.0f, 1.0f},
+                               {-1.0f, -1.0f},
+                               {1.0f, -1.0f}}) {
+      worst = std::max(worst,
+                       std::abs(static_cast<double>(internal::LaneAtan2(radius * y, radius * x)) -
+                                std::atan2(static_cast<double>(y), x)));
+    }
+  }
+  std::printf("worst |LaneAtan2 - atan2| %.3g rad\n", worst);
+  EXPECT_LT(worst, 3e-7);
 }
 
 TEST(RenderTest, NoiseDependsOnSeedOnly) {

@@ -51,6 +51,9 @@ struct ImageEffects {
   // true: the mean of up to max_blur_samples full sub-frame renders (exact but slow).
   bool exact_blur = false;
   int reprojection_max_samples = 8;
+  // Cylinders' texture angle: false (default) a polynomial atan2 in the renderer's lanes; true
+  // std::atan2 per pixel, the reference (CameraRenderer::SetExactCylinderAngles).
+  bool exact_cylinder_angles = false;
 
   // Exposure gain at time t_s since the first frame.
   double GainAt(double t_s, uint64_t seed) const;

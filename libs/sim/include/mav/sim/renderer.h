@@ -51,6 +51,11 @@ class CameraRenderer {
   void SetSimdLanes(int max_lanes);
   int simd_lanes() const;
 
+  // Cylinders' texture coordinate around the axis: false (default) a polynomial atan2 that
+  // runs in the lanes (within 3e-7 rad of std::atan2); true std::atan2 per pixel, the images
+  // pinned before that change (render_test bounds the difference: at most 1 DN).
+  void SetExactCylinderAngles(bool exact);
+
   // Scene radiance per pixel (row-major, width*height; 1.0 = a white surface under full light)
   // seen from T_world_cam. `range` (optional) receives the distance along the ray in metres
   // (+infinity where nothing was hit).
@@ -88,5 +93,10 @@ class CameraRenderer {
 // same bytes at every width).
 void FormImage(const std::vector<float>& radiance, int width, int height, double gain,
                double noise_sigma, uint64_t noise_key, cv::Mat* image, int max_lanes = 16);
+
+namespace internal {
+// The renderer's atan2 (CameraRenderer::SetExactCylinderAngles), one value, for tests.
+float LaneAtan2(float y, float x);
+}  // namespace internal
 
 }  // namespace mav::sim

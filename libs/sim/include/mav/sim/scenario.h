@@ -34,6 +34,9 @@ struct ScenarioOptions {
   // true: an ideal rectified pinhole pair (no distortion, no relative rotation).
   // false: EuRoC's raw calibration (radial-tangential distortion, small rotation cam0->cam1).
   bool rectified = false;
+  // The reference rendering of cylinders (ImageEffects::exact_cylinder_angles): slower; the
+  // images pinned before the renderer's own atan2 (render_test).
+  bool exact_cylinder_angles = false;
 
   bool IsValid(std::string* why) const;
 };

@@ -494,14 +494,17 @@ MAV_SIM_INLINE int Mask(VI m) { return _mm512_movepi32_mask((__m512i)m); }
 MAV_SIM_INLINE V Select(VI m, V a, V b) {
   return (V)_mm512_mask_blend_ps(static_cast<__mmask16>(Mask(m)), (__m512)b, (__m512)a);
 }
-// minps / maxps semantics (the second operand when either is NaN), without GCC 12's
-// _mm512_min_ps (its undefined pass-through operand warns: GCC bug 105593).
-MAV_SIM_INLINE V Min(V a, V b) { return Select(a < b, a, b); }
-MAV_SIM_INLINE V Max(V a, V b) { return Select(a > b, a, b); }
-MAV_SIM_INLINE V Abs(V a) { return (V)((VI)a & 0x7fffffff); }
-MAV_SIM_INLINE V Sqrt(V a) {  // (the masked forms: see Min)
-  return (V)_mm512_mask_sqrt_ps((__m512)a, 0xffff, (__m512)a);
+// vminps / vmaxps (the second operand when either is NaN, as minps), in the masked forms: GCC
+// 12's unmasked ones pass an undefined operand that -Wmaybe-uninitialized reports (GCC bug
+// 105593). The same for Sqrt and the gathers below.
+MAV_SIM_INLINE V Min(V a, V b) {
+  return (V)_mm512_mask_min_ps((__m512)a, 0xffff, (__m512)a, (__m512)b);
 }
+MAV_SIM_INLINE V Max(V a, V b) {
+  return (V)_mm512_mask_max_ps((__m512)a, 0xffff, (__m512)a, (__m512)b);
+}
+MAV_SIM_INLINE V Abs(V a) { return (V)((VI)a & 0x7fffffff); }
+MAV_SIM_INLINE V Sqrt(V a) { return (V)_mm512_mask_sqrt_ps((__m512)a, 0xffff, (__m512)a); }
 MAV_SIM_INLINE VI Trunc(V a) { return __builtin_convertvector(a, VI); }
 MAV_SIM_INLINE V ToFloat(VI a) { return __builtin_convertvector(a, V); }
 MAV_SIM_INLINE bool All(VI m) { return Mask(m) == 0xffff; }

@@ -12,6 +12,8 @@
 // (FeatureOptions::use_avx2): integer max, min and compares, the same output either way.
 #define MAV_FEATURES_AVX2 1
 #define MAV_TARGET_AVX2 __attribute__((target("avx2")))
+// The suppression's kernels also 32 lanes wide with AVX-512BW (FeatureOptions::use_avx512).
+#define MAV_TARGET_AVX512 __attribute__((target("avx2,avx512f,avx512bw")))
 #endif
 
 namespace mav::localization {
@@ -135,29 +137,79 @@ MAV_TARGET_AVX2 void RunningColumnExtremaAvx2N(const int16_t* __restrict imax,
   _mm256_zeroupper();
   RunningColumnExtremaN<N>(imax, imin, x, x1, stride, omax, omin);
 }
+
+MAV_TARGET_AVX512 inline __m512i Load32(const int16_t* p) { return _mm512_loadu_si512(p); }
+
+// The two passes 32 pixels at a time; the rest of the row with the AVX2 kernels (VEX code: no
+// transition penalty from the dirty upper halves, and they clear them before the SSE2 code).
+template <int N>
+MAV_TARGET_AVX512 void RunningExtremaAvx512N(const int16_t* __restrict in, int x0, int x1,
+                                             int16_t* __restrict omax, int16_t* __restrict omin) {
+  int x = x0;
+  for (; x + 32 <= x1; x += 32) {
+    const __m512i c = Load32(in + x);
+    __m512i a = c, b = c;
+    for (int k = 1; k <= N; ++k) {
+      const __m512i l = Load32(in + x - k), r = Load32(in + x + k);
+      a = _mm512_max_epi16(a, _mm512_max_epi16(l, r));
+      b = _mm512_min_epi16(b, _mm512_min_epi16(l, r));
+    }
+    _mm512_storeu_si512(omax + x, a);
+    _mm512_storeu_si512(omin + x, b);
+  }
+  RunningExtremaAvx2N<N>(in, x, x1, omax, omin);
+}
+
+template <int N>
+MAV_TARGET_AVX512 void RunningColumnExtremaAvx512N(const int16_t* __restrict imax,
+                                                   const int16_t* __restrict imin, int x0, int x1,
+                                                   int stride, int16_t* __restrict omax,
+                                                   int16_t* __restrict omin) {
+  int x = x0;
+  for (; x + 32 <= x1; x += 32) {
+    __m512i a = Load32(imax + x), b = Load32(imin + x);
+    for (int k = 1; k <= N; ++k) {
+      a = _mm512_max_epi16(
+          a, _mm512_max_epi16(Load32(imax + x - k * stride), Load32(imax + x + k * stride)));
+      b = _mm512_min_epi16(
+          b, _mm512_min_epi16(Load32(imin + x - k * stride), Load32(imin + x + k * stride)));
+    }
+    _mm512_storeu_si512(omax + x, a);
+    _mm512_storeu_si512(omin + x, b);
+  }
+  RunningColumnExtremaAvx2N<N>(imax, imin, x, x1, stride, omax, omin);
+}
 #endif
 
-// The row and the column pass for radius N, AVX2 when `avx2` (the caller checked the CPU),
-// else SSE2.
+// Which kernels run: the SSE2 ones, AVX2 or AVX-512BW (the callers checked the CPU).
+enum class Isa { kSse2, kAvx2, kAvx512 };
+
+// The row and the column pass for radius N with the kernels of `isa`.
 template <int N>
 struct RowPass {
-  static void Run(bool avx2, const int16_t* in, int x0, int x1, int16_t* omax, int16_t* omin) {
+  static void Run(Isa isa, const int16_t* in, int x0, int x1, int16_t* omax, int16_t* omin) {
 #ifdef MAV_FEATURES_AVX2
-    if (avx2) return RunningExtremaAvx2N<N>(in, x0, x1, omax, omin);
+    if (isa == Isa::kAvx512) return RunningExtremaAvx512N<N>(in, x0, x1, omax, omin);
+    if (isa == Isa::kAvx2) return RunningExtremaAvx2N<N>(in, x0, x1, omax, omin);
 #endif
-    (void)avx2;
+    (void)isa;
     RunningExtremaN<N>(in, x0, x1, omax, omin);
   }
 };
 
 template <int N>
 struct ColumnPass {
-  static void Run(bool avx2, const int16_t* imax, const int16_t* imin, int x0, int x1, int stride,
+  static void Run(Isa isa, const int16_t* imax, const int16_t* imin, int x0, int x1, int stride,
                   int16_t* omax, int16_t* omin) {
 #ifdef MAV_FEATURES_AVX2
-    if (avx2) return RunningColumnExtremaAvx2N<N>(imax, imin, x0, x1, stride, omax, omin);
+    if (isa == Isa::kAvx512) {
+      return RunningColumnExtremaAvx512N<N>(imax, imin, x0, x1, stride, omax, omin);
+    }
+    if (isa == Isa::kAvx2) {
+      return RunningColumnExtremaAvx2N<N>(imax, imin, x0, x1, stride, omax, omin);
+    }
 #endif
-    (void)avx2;
+    (void)isa;
     RunningColumnExtremaN<N>(imax, imin, x0, x1, stride, omax, omin);
   }
 };
@@ -186,14 +238,14 @@ void WithRadius(int n, Args... args) {
   }
 }
 
-void RunningExtrema(bool avx2, const int16_t* in, int x0, int x1, int n, int16_t* omax,
+void RunningExtrema(Isa isa, const int16_t* in, int x0, int x1, int n, int16_t* omax,
                     int16_t* omin) {
-  WithRadius<RowPass>(n, avx2, in, x0, x1, omax, omin);
+  WithRadius<RowPass>(n, isa, in, x0, x1, omax, omin);
 }
 
-void RunningColumnExtrema(bool avx2, const int16_t* imax, const int16_t* imin, int x0, int x1,
-                          int n, int stride, int16_t* omax, int16_t* omin) {
-  WithRadius<ColumnPass>(n, avx2, imax, imin, x0, x1, stride, omax, omin);
+void RunningColumnExtrema(Isa isa, const int16_t* imax, const int16_t* imin, int x0, int x1, int n,
+                          int stride, int16_t* omax, int16_t* omin) {
+  WithRadius<ColumnPass>(n, isa, imax, imin, x0, x1, stride, omax, omin);
 }
 
 // The pixels x in [x0, x1) of a row that equal the running maximum mx[x] at >= threshold or the
@@ -251,23 +303,44 @@ MAV_TARGET_AVX2 int FindCandidatesAvx2(const int16_t* row, const int16_t* mx, co
   _mm256_zeroupper();  // before the SSE2 code of the rest
   return count + FindCandidatesSse2(row, mx, mn, x, x1, threshold, out + count);
 }
+
+// 32 pixels at a time, the compares straight into bit masks (one bit per pixel).
+MAV_TARGET_AVX512 int FindCandidatesAvx512(const int16_t* row, const int16_t* mx, const int16_t* mn,
+                                           int x0, int x1, int threshold, int16_t* out) {
+  const __m512i tau_m1 = _mm512_set1_epi16(static_cast<int16_t>(threshold - 1));
+  const __m512i neg_tau_p1 = _mm512_set1_epi16(static_cast<int16_t>(-threshold + 1));
+  int count = 0, x = x0;
+  for (; x + 32 <= x1; x += 32) {
+    const __m512i val = Load32(row + x);
+    const __mmask32 is_max =
+        _mm512_cmpeq_epi16_mask(val, Load32(mx + x)) & _mm512_cmpgt_epi16_mask(val, tau_m1);
+    const __mmask32 is_min =
+        _mm512_cmpeq_epi16_mask(val, Load32(mn + x)) & _mm512_cmpgt_epi16_mask(neg_tau_p1, val);
+    for (uint32_t mask = is_max | is_min; mask != 0; mask &= mask - 1) {
+      out[count++] = static_cast<int16_t>(x + __builtin_ctz(mask));
+    }
+  }
+  return count + FindCandidatesAvx2(row, mx, mn, x, x1, threshold, out + count);
+}
 #endif
 
-int FindCandidates(bool avx2, const int16_t* row, const int16_t* mx, const int16_t* mn, int x0,
+int FindCandidates(Isa isa, const int16_t* row, const int16_t* mx, const int16_t* mn, int x0,
                    int x1, int threshold, int16_t* out) {
 #ifdef MAV_FEATURES_AVX2
-  if (avx2) return FindCandidatesAvx2(row, mx, mn, x0, x1, threshold, out);
+  if (isa == Isa::kAvx512) return FindCandidatesAvx512(row, mx, mn, x0, x1, threshold, out);
+  if (isa == Isa::kAvx2) return FindCandidatesAvx2(row, mx, mn, x0, x1, threshold, out);
 #endif
-  (void)avx2;
+  (void)isa;
   return FindCandidatesSse2(row, mx, mn, x0, x1, threshold, out);
 }
 
 // Non-maximum suppression by grey-level dilation: the (2n+1)x(2n+1) running maximum and minimum
-// are computed separably (rows, then columns; 16 or 8 pixels at a time with AVX2 or SSE2);
+// are computed separably (rows, then columns; 32, 16 or 8 pixels at a time with AVX-512, AVX2
+// or SSE2);
 // a pixel is a maximum (minimum) feature when it equals the running maximum (minimum) and passes
 // the threshold. Plateaus are broken by keeping only the first pixel in raster order among equal
 // 8-neighbours.
-void SuppressNonExtrema(bool avx2, const int16_t* r, int w, int h, int lo_x, int hi_x, int lo_y,
+void SuppressNonExtrema(Isa isa, const int16_t* r, int w, int h, int lo_x, int hi_x, int lo_y,
                         int hi_y, int n, int threshold, int scale, std::vector<int16_t>* scratch,
                         std::vector<RawFeature>* maxima, std::vector<RawFeature>* minima) {
   // Rows [lo_y - n, hi_y + n) and columns [lo_x - n, hi_x + n) must hold valid responses.
@@ -282,13 +355,13 @@ void SuppressNonExtrema(bool avx2, const int16_t* r, int w, int h, int lo_x, int
   int16_t* cmin = cmax + w;
   int16_t* candidates = cmin + w;
   for (int y = y0; y < y1; ++y) {
-    RunningExtrema(avx2, r + static_cast<size_t>(y) * w, x0, x1, n,
+    RunningExtrema(isa, r + static_cast<size_t>(y) * w, x0, x1, n,
                    rmax + static_cast<size_t>(y) * w, rmin + static_cast<size_t>(y) * w);
   }
   for (int y = lo_y; y < hi_y; ++y) {
     if (y - n >= y0 && y + n < y1) {
       // Column pass: the same kernel with a stride of one row, centred on row y.
-      RunningColumnExtrema(avx2, rmax + static_cast<size_t>(y) * w,
+      RunningColumnExtrema(isa, rmax + static_cast<size_t>(y) * w,
                            rmin + static_cast<size_t>(y) * w, x0, x1, n, w, cmax, cmin);
     } else {
       const int ya = std::max(y - n, y0), yb = std::min(y + n, y1 - 1);
@@ -306,7 +379,7 @@ void SuppressNonExtrema(bool avx2, const int16_t* r, int w, int h, int lo_x, int
     // The pixels equal to the running maximum or minimum past the threshold (vector compares),
     // then the plateau test on those few: an equal neighbour earlier in raster order wins.
     const int16_t* row = r + static_cast<size_t>(y) * w;
-    const int count = FindCandidates(avx2, row, cmax, cmin, x0, x1, threshold, candidates);
+    const int count = FindCandidates(isa, row, cmax, cmin, x0, x1, threshold, candidates);
     for (int c = 0; c < count; ++c) {
       const int x = candidates[c];
       const int16_t val = row[x];
@@ -517,6 +590,14 @@ bool CpuHasAvx2() {
 #endif
 }
 
+bool CpuHasAvx512Bw() {
+#ifdef MAV_FEATURES_AVX2
+  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw");
+#else
+  return false;
+#endif
+}
+
 }  // namespace
 
 void ComputeFilterResponses(const ImageView& image, std::vector<int16_t>* blob,
@@ -534,10 +615,12 @@ FeatureExtractor::FeatureExtractor(const FeatureOptions& options) : options_(opt
   MAV_CHECK(options_.IsValid(&why)) << why;
 #ifdef MAV_FEATURES_AVX2
   avx2_ = options_.use_avx2 && CpuHasAvx2();
+  avx512_ = avx2_ && options_.use_avx512 && CpuHasAvx512Bw();
 #endif
 }
 
 bool FeatureExtractor::UsesAvx2() const { return avx2_; }
+bool FeatureExtractor::UsesAvx512() const { return avx512_; }
 
 void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   const int w = image.width, h = image.height;
@@ -592,10 +675,11 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   const int hi_y = (h - m - 1) / scale + 1;
   std::array<std::vector<RawFeature>, kNumFeatureClasses> raw;
   for (auto& r : raw) r.reserve(4096);
-  SuppressNonExtrema(avx2_, blob_.data(), det.width, det.height, lo, hi_x, lo, hi_y,
+  const Isa isa = avx512_ ? Isa::kAvx512 : avx2_ ? Isa::kAvx2 : Isa::kSse2;
+  SuppressNonExtrema(isa, blob_.data(), det.width, det.height, lo, hi_x, lo, hi_y,
                      options_.nms_radius, options_.response_threshold, scale, &scratch_,
                      &raw[kBlobMax], &raw[kBlobMin]);
-  SuppressNonExtrema(avx2_, corner_.data(), det.width, det.height, lo, hi_x, lo, hi_y,
+  SuppressNonExtrema(isa, corner_.data(), det.width, det.height, lo, hi_x, lo, hi_y,
                      options_.nms_radius, options_.response_threshold, scale, &scratch_,
                      &raw[kCornerMax], &raw[kCornerMin]);
 

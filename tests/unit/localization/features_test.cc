@@ -218,9 +218,9 @@ TEST(FeaturesTest, WindowScansVisitExactlyTheWindowsFeatures) {
   EXPECT_GT(visited, 10000);  // the windows were not all empty
 }
 
-// The AVX2 kernels (chosen at run time) find the same features as the SSE2 ones, on the
-// rendered room and on noise (plateaus, every radius), at full and half resolution.
-TEST(FeaturesTest, Avx2AndSse2KernelsFindTheSameFeatures) {
+// The AVX-512 and AVX2 kernels (chosen at run time) find the same features as the SSE2 ones, on
+// the rendered room and on noise (plateaus, every radius), at full and half resolution.
+TEST(FeaturesTest, WideKernelsAndSse2KernelsFindTheSameFeatures) {
   const camera::RectifiedStereo rig = synthetic::EurocLikeRig();
   synthetic::SyntheticRoom room;
   std::vector<uint8_t> left, right;
@@ -240,16 +240,25 @@ TEST(FeaturesTest, Avx2AndSse2KernelsFindTheSameFeatures) {
         options.half_resolution = half;
         options.response_threshold = image.image == &noise ? 0 : 50;
         FeatureExtractor best(options);
+        options.use_avx512 = false;
+        FeatureExtractor avx2(options);
+        ASSERT_FALSE(avx2.UsesAvx512());
         options.use_avx2 = false;
         FeatureExtractor sse2(options);
         ASSERT_FALSE(sse2.UsesAvx2());
-        FeatureSet a, b;
+        FeatureSet a, b, c;
         best.Extract({image.image->data(), image.w, image.h, image.w}, &a);
-        sse2.Extract({image.image->data(), image.w, image.h, image.w}, &b);
+        avx2.Extract({image.image->data(), image.w, image.h, image.w}, &b);
+        sse2.Extract({image.image->data(), image.w, image.h, image.w}, &c);
         for (int k = 0; k < kNumFeatureClasses; ++k) {
-          ASSERT_EQ(a.features(k).u, b.features(k).u) << "n " << n << " class " << k;
-          ASSERT_EQ(a.features(k).v, b.features(k).v) << "n " << n << " class " << k;
-          ASSERT_EQ(a.features(k).strength, b.features(k).strength) << "n " << n;
+          for (const FeatureSet* wide : {&a, &b}) {
+            const char* which = wide == &a ? "widest" : "AVX2";
+            ASSERT_EQ(wide->features(k).u, c.features(k).u)
+                << which << " n " << n << " class " << k;
+            ASSERT_EQ(wide->features(k).v, c.features(k).v)
+                << which << " n " << n << " class " << k;
+            ASSERT_EQ(wide->features(k).strength, c.features(k).strength) << which << " n " << n;
+          }
         }
         EXPECT_GT(a.TotalFeatures(), 0);
       }
@@ -257,6 +266,9 @@ TEST(FeaturesTest, Avx2AndSse2KernelsFindTheSameFeatures) {
   }
   if (!FeatureExtractor(FeatureOptions{}).UsesAvx2()) {
     GTEST_SKIP() << "this CPU has no AVX2: only the SSE2 kernels ran";
+  }
+  if (!FeatureExtractor(FeatureOptions{}).UsesAvx512()) {
+    GTEST_SKIP() << "this CPU has no AVX-512BW: only the AVX2 and SSE2 kernels ran";
   }
 }
 

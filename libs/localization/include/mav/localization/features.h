@@ -74,6 +74,8 @@ struct FeatureOptions {
   // Run the filters' and the suppression's kernels with AVX2 when the CPU has it (else SSE2).
   // Integer arithmetic: the same features either way (features_test compares the two).
   bool use_avx2 = true;
+  // With use_avx2: the suppression's kernels 32 pixels wide with AVX-512BW when the CPU has it.
+  bool use_avx512 = true;
 
   bool IsValid(std::string* why) const;
 };
@@ -207,10 +209,13 @@ class FeatureExtractor {
   void Extract(const ImageView& image, FeatureSet* out);
   // Whether Extract runs the AVX2 kernels (options.use_avx2 and a CPU that has AVX2).
   bool UsesAvx2() const;
+  // Whether the suppression runs its AVX-512BW kernels (options.use_avx512 too).
+  bool UsesAvx512() const;
 
  private:
   FeatureOptions options_;
   bool avx2_ = false;
+  bool avx512_ = false;
   std::vector<uint8_t> half_;
   std::vector<int16_t> blob_, corner_, scratch_;
   std::vector<int32_t> order_;

@@ -194,15 +194,6 @@ SphereView ViewSphere(float cx, float cy, float cz, float r) {
   return s;
 }
 
-bool ConeHitsSphere(const Cone& cone, const SphereView& s) {
-  if (s.contains_camera) return true;
-  const float cos_ac = cone.ax * s.ux + cone.ay * s.uy + cone.az * s.uz;
-  // angle(axis, c) <= half + beta  <=>  cos_ac >= cos(half + beta) (both angles < pi here).
-  const float cos_sum = cone.cos_half * s.cos_b - cone.sin_half * s.sin_b;
-  if (cone.cos_half < 0 && s.cos_b < 0) return true;
-  return cos_ac >= cos_sum;
-}
-
 Cone MakeCone(const std::vector<Eigen::Vector3f>& rays) {
   Cone cone;
   Eigen::Vector3f sum = Eigen::Vector3f::Zero();
@@ -299,6 +290,13 @@ MAV_SIM_INLINE V ToFloat(VI a) { return ToFloat4(a); }
 MAV_SIM_INLINE bool All(VI m) { return All4(m); }
 MAV_SIM_INLINE float HMax(V a) { return HMax4(a); }
 MAV_SIM_INLINE V LaneIndex() { return V{0, 1, 2, 3}; }
+MAV_SIM_INLINE int Mask(VI m) {  // bit j: lane j's mask set
+#if defined(__SSE2__)
+  return _mm_movemask_ps(reinterpret_cast<__m128>(m));
+#else
+  return (m[0] != 0) | (m[1] != 0) << 1 | (m[2] != 0) << 2 | (m[3] != 0) << 3;
+#endif
+}
 MAV_SIM_INLINE V Bilinear(const float* img, const VI& idx, size_t stride, V ax, V ay) {
   return Bilinear4(img, idx, stride, ax, ay);
 }

@@ -897,7 +897,7 @@ void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radia
   rf.exact_atan2 = exact_atan2;
 #if defined(MAV_SIM_HAVE_AVX2)
   // 8 lanes at most: with 16 (a whole tile row a group) fewer groups share a primitive and a
-  // texture level, and the 16-lane tile loop measured slower (docs/benchmarks.md).
+  // texture level, and the 16-lane tile loop is no faster (docs/benchmarks.md).
   if (lanes >= 8) return lanes8::RenderTiles(rf, radiance, range);
 #endif
   lanes4::RenderTiles(rf, radiance, range);

@@ -113,7 +113,8 @@ void PrintScenario(const std::string& dir) {
   std::string line;
   std::string summary;
   while (std::getline(lines, line)) {
-    for (const char* key : {"generator:", "preset:", "seed:", "rectified:"}) {
+    for (const char* key :
+         {"generator:", "preset:", "seed:", "rectified:", "exact_cylinder_angles: true"}) {
       if (line.rfind(key, 0) == 0) summary += (summary.empty() ? "" : ", ") + line;
     }
   }

@@ -111,6 +111,46 @@ TEST(MavSimCli, GenerateThenReadReproducesRenderingExactly) {
   EXPECT_NE(again.output.find("--force"), std::string::npos) << again.output;
 }
 
+TEST(MavSimCli, ExactCylinderAnglesRendersTheReferenceImages) {
+  // --exact-cylinder-angles: the reference rendering (ScenarioOptions::exact_cylinder_angles),
+  // recorded in scenario.yaml and shown by info. Plant frames: pipes and tanks everywhere.
+  TempDir dir;
+  const std::string out = dir.path() + "/set";
+  const RunResult run = RunMavSim(
+      "generate --preset plant --frames 2 --seed 3 --threads 2 --exact-cylinder-angles "
+      "--occupancy-resolution 1 --out " +
+      out);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  auto reader = EurocReader::Open(out, ReadOptions{});
+  ASSERT_TRUE(reader.ok()) << reader.status().ToString();
+  sim::ScenarioOptions options;
+  options.preset = "plant";
+  options.frames = 2;
+  options.seed = 3;
+  options.exact_cylinder_angles = true;
+  auto exact = sim::Scenario::Create(options);
+  ASSERT_TRUE(exact.ok()) << exact.status().ToString();
+  options.exact_cylinder_angles = false;
+  auto fast = sim::Scenario::Create(options);
+  ASSERT_TRUE(fast.ok()) << fast.status().ToString();
+  int differing = 0;  // pixels where the two renderings differ: the flag must make a difference
+  for (int64_t k = 0; k < 2; ++k) {
+    auto pair = reader->ReadStereo(k);
+    ASSERT_TRUE(pair.ok()) << pair.status().ToString();
+    cv::Mat left, right, fast_left, fast_right;
+    exact->RenderStereo(k, &left, &right);
+    fast->RenderStereo(k, &fast_left, &fast_right);
+    EXPECT_TRUE(SameImage(pair->left, left)) << "left " << k;
+    EXPECT_TRUE(SameImage(pair->right, right)) << "right " << k;
+    differing += cv::countNonZero(left != fast_left) + cv::countNonZero(right != fast_right);
+  }
+  std::printf("%d pixels differ from the default rendering\n", differing);
+  EXPECT_GT(differing, 0);
+  const RunResult info = RunMavSim("info " + out);
+  EXPECT_EQ(info.exit_code, 0) << info.output;
+  EXPECT_NE(info.output.find("exact_cylinder_angles: true"), std::string::npos) << info.output;
+}
+
 TEST(MavSimCli, BadFlagsFailNamingTheFlag) {
   TempDir dir;
   const std::string out = " --out " + dir.path() + "/x";

@@ -6,12 +6,12 @@
 // table (also stored in 16 x 16 pixel tile order), together with a bounding cone per tile. Per
 // frame, the primitives whose bounding spheres (long primitives are split into several) fall
 // inside a tile's cone are collected and sorted nearest first; they are intersected with the
-// tile's rays 4 at a time (SSE2), in float precision relative to each primitive's centre, and the
-// tile stops as soon as every pixel has a hit nearer than the next candidate can be. Shading:
-// albedo (trilinearly filtered texture, texture.h; texel fetches of a whole tile are addressed
-// and prefetched before they are blended) times the world's lighting, plus emission. No shadows,
-// no inter-reflections, no geometric anti-aliasing (edges of primitives are sampled once per
-// pixel centre).
+// tile's rays 4 or 8 at a time (SSE2 or AVX2: SetSimdLanes), in float precision relative to each
+// primitive's centre, and the tile stops as soon as every pixel has a hit nearer than the next
+// candidate can be. Shading: albedo (trilinearly filtered texture, texture.h; texel fetches of a
+// whole tile are addressed and prefetched before they are blended) times the world's lighting, plus
+// emission. No shadows, no inter-reflections, no geometric anti-aliasing (edges of primitives are
+// sampled once per pixel centre).
 //
 // Rendering is const and allocation-free inside the pixel loops; a CameraRenderer can render
 // many frames concurrently from several threads. Output is deterministic (same binary, same
@@ -72,7 +72,7 @@ class CameraRenderer {
   // projected, with the camera model, into the cameras at shutter open and close; the blurred
   // value is the mean of `sharp` sampled (bilinearly) along the resulting image-motion segment,
   // i.e. the sub-frame integral for a static scene with motion linear over the shutter. Up to
-  // `max_samples` samples, about one per pixel of motion (4 pixels at a time, SSE2).
+  // `max_samples` samples, about one per pixel of motion (4, 8 or 16 pixels at a time).
   // Approximate at occlusion boundaries (the hidden background is not known).
   void BlurByReprojection(const std::vector<float>& sharp, const std::vector<float>& range,
                           const geometry::SE3& T_world_cam_mid,

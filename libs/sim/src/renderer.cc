@@ -304,6 +304,32 @@ MAV_SIM_INLINE V LevelFetch(const uint16_t* const q[4], V ax, V ay) {
   return LevelFetch4(q, ax, ay);
 }
 #include "renderer_lanes.inc"
+
+// Row v of the blur from pixel u on (u a multiple of 4): the rows of the 4-lane path, the row
+// tails of the wider ones.
+MAV_SIM_INLINE void BlurRowFrom(const BlurFrame& b, const BlurConsts& c, int v, int u, float* out) {
+  const size_t row = static_cast<size_t>(v) * b.w;
+  for (; u < b.w; u += 4) {
+    const V r = BlurLanes(b, c, v, u);
+    if (u + 4 <= b.w) {
+      Store(out + row + u, r);
+    } else {
+      for (int j = 0; u + j < b.w; ++j) out[row + u + j] = r[j];
+    }
+  }
+}
+
+// Image formation of a row from pixel u on (u a multiple of 4), 4 pixels at a time.
+MAV_SIM_INLINE void FormRowFrom(const FormConsts& f, const float* in, size_t row_start, int u,
+                                int width, uint8_t* row) {
+  for (; u < width; u += 4) {
+    const size_t i = row_start + u;
+    V r = Splat(0.0f);
+    for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
+    const VI q = FormLanes(f, r, i);
+    for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
+  }
+}
 }  // namespace lanes4
 
 #if defined(MAV_SIM_HAVE_AVX2)
@@ -422,10 +448,7 @@ void BlurRows(const BlurFrame& b, float* out) {
     const size_t row = static_cast<size_t>(v) * b.w;
     int u = 0;
     for (; u + 8 <= b.w; u += 8) Store(out + row + u, BlurLanesAs4(b, c, c4, v, u));
-    for (; u < b.w; u += 4) {
-      const lanes4::V r = lanes4::BlurLanes(b, c4, v, u);
-      for (int j = 0; j < 4 && u + j < b.w; ++j) out[row + u + j] = r[j];
-    }
+    lanes4::BlurRowFrom(b, c4, v, u, out);
   }
   _mm256_zeroupper();
 }
@@ -451,13 +474,7 @@ void FormRows(const float* in, int width, int height, const lanes4::FormConsts& 
                                                         _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7));
       _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + u), bytes);
     }
-    for (; u < width; u += 4) {
-      const size_t i = row_start + u;
-      F4 r = ::mav::sim::Splat(0.0f);
-      for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
-      const I4 q = lanes4::FormLanes(f4, r, i);
-      for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
-    }
+    lanes4::FormRowFrom(f4, in, row_start, u, width, row);
   }
   _mm256_zeroupper();
 }
@@ -573,10 +590,7 @@ void BlurRows(const BlurFrame& b, float* out) {
     for (; u + 16 <= b.w; u += 16) Store(out + row + u, BlurLanesAs4(b, c, c8, c4, v, u));
     for (; u + 8 <= b.w; u += 8)
       lanes8::Store(out + row + u, lanes8::BlurLanesAs4(b, c8, c4, v, u));
-    for (; u < b.w; u += 4) {
-      const lanes4::V r = lanes4::BlurLanes(b, c4, v, u);
-      for (int j = 0; j < 4 && u + j < b.w; ++j) out[row + u + j] = r[j];
-    }
+    lanes4::BlurRowFrom(b, c4, v, u, out);
   }
   _mm256_zeroupper();
 }
@@ -596,13 +610,7 @@ void FormRows(const float* in, int width, int height, const lanes4::FormConsts& 
       const Bytes bytes = __builtin_convertvector(q, Bytes);
       std::memcpy(row + u, &bytes, sizeof(bytes));
     }
-    for (; u < width; u += 4) {
-      const size_t i = row_start + u;
-      F4 r = ::mav::sim::Splat(0.0f);
-      for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
-      const I4 q = lanes4::FormLanes(f4, r, i);
-      for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
-    }
+    lanes4::FormRowFrom(f4, in, row_start, u, width, row);
   }
   _mm256_zeroupper();
 }
@@ -820,17 +828,7 @@ void CameraRenderer::BlurByReprojection(const std::vector<float>& sharp,
   if (s.lanes == 8) return lanes8::BlurRows(b, out);
 #endif
   const lanes4::BlurConsts c = lanes4::MakeBlurConsts(b);
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; u += 4) {
-      const size_t i = static_cast<size_t>(v) * w + u;
-      const F4 r = lanes4::BlurLanes(b, c, v, u);
-      if (u + 4 <= w) {
-        Store4(out + i, r);
-      } else {
-        for (int j = 0; u + j < w; ++j) out[i + j] = r[j];
-      }
-    }
-  }
+  for (int v = 0; v < h; ++v) lanes4::BlurRowFrom(b, c, v, 0, out);
 }
 
 void CameraRenderer::Impl::Render(const geometry::SE3& T_world_cam, float* radiance,
@@ -939,13 +937,7 @@ void FormImage(const std::vector<float>& radiance, int width, int height, double
       _mm_storeu_si128(reinterpret_cast<__m128i*>(row + u), _mm_packus_epi16(lo, hi));
     }
 #endif
-    for (; u < width; u += 4) {
-      const size_t i = row_start + u;
-      F4 r = Splat(0.0f);
-      for (int j = 0; j < 4 && u + j < width; ++j) r[j] = in[i + j];
-      const I4 q = lanes4::FormLanes(f4, r, i);
-      for (int j = 0; j < 4 && u + j < width; ++j) row[u + j] = static_cast<uint8_t>(q[j]);
-    }
+    lanes4::FormRowFrom(f4, in, row_start, u, width, row);
   }
 }
 

@@ -14,6 +14,8 @@
 #define MAV_TARGET_AVX2 __attribute__((target("avx2")))
 // The suppression's kernels also 32 lanes wide with AVX-512BW (FeatureOptions::use_avx512).
 #define MAV_TARGET_AVX512 __attribute__((target("avx2,avx512f,avx512bw")))
+// And the suppression's candidates compressed with AVX512-VBMI2 (FeatureOptions::use_vbmi2).
+#define MAV_TARGET_VBMI2 __attribute__((target("avx2,avx512f,avx512bw,avx512vbmi2")))
 #endif
 
 namespace mav::localization {
@@ -26,6 +28,14 @@ constexpr int kPatternV[16] = {-5, -5, -3, -3, -1, -1, -1, -1, 1, 1, 1, 1, 3, 3,
 
 inline uint8_t SobelToByte(int s) {
   return static_cast<uint8_t>(std::clamp((s >> 2) + 128, 0, 255));
+}
+
+// Grows the scratch buffer shared by the Sobel images, the filters and the suppression to at
+// least n entries, never shrinking it: shrunk by the Sobel pass and grown again by the filters,
+// it was zero-filled anew for every image (2 MB each, 1 % of a VO frame in memset).
+inline int16_t* ScratchOf(std::vector<int16_t>* scratch, size_t n) {
+  if (scratch->size() < n) scratch->resize(n);
+  return scratch->data();
 }
 
 struct RawFeature {
@@ -181,15 +191,16 @@ MAV_TARGET_AVX512 void RunningColumnExtremaAvx512N(const int16_t* __restrict ima
 }
 #endif
 
-// Which kernels run: the SSE2 ones, AVX2 or AVX-512BW (the callers checked the CPU).
-enum class Isa { kSse2, kAvx2, kAvx512 };
+// Which kernels run: the SSE2 ones, AVX2, AVX-512BW, or AVX-512BW with VBMI2's compression of
+// the candidates (the callers checked the CPU).
+enum class Isa { kSse2, kAvx2, kAvx512, kAvx512Vbmi2 };
 
 // The row and the column pass for radius N with the kernels of `isa`.
 template <int N>
 struct RowPass {
   static void Run(Isa isa, const int16_t* in, int x0, int x1, int16_t* omax, int16_t* omin) {
 #ifdef MAV_FEATURES_AVX2
-    if (isa == Isa::kAvx512) return RunningExtremaAvx512N<N>(in, x0, x1, omax, omin);
+    if (isa >= Isa::kAvx512) return RunningExtremaAvx512N<N>(in, x0, x1, omax, omin);
     if (isa == Isa::kAvx2) return RunningExtremaAvx2N<N>(in, x0, x1, omax, omin);
 #endif
     (void)isa;
@@ -202,7 +213,7 @@ struct ColumnPass {
   static void Run(Isa isa, const int16_t* imax, const int16_t* imin, int x0, int x1, int stride,
                   int16_t* omax, int16_t* omin) {
 #ifdef MAV_FEATURES_AVX2
-    if (isa == Isa::kAvx512) {
+    if (isa >= Isa::kAvx512) {
       return RunningColumnExtremaAvx512N<N>(imax, imin, x0, x1, stride, omax, omin);
     }
     if (isa == Isa::kAvx2) {
@@ -304,21 +315,48 @@ MAV_TARGET_AVX2 int FindCandidatesAvx2(const int16_t* row, const int16_t* mx, co
   return count + FindCandidatesSse2(row, mx, mn, x, x1, threshold, out + count);
 }
 
-// 32 pixels at a time, the compares straight into bit masks (one bit per pixel).
-MAV_TARGET_AVX512 int FindCandidatesAvx512(const int16_t* row, const int16_t* mx, const int16_t* mn,
-                                           int x0, int x1, int threshold, int16_t* out) {
+// The candidates among the 32 pixels from x, as a bit mask: equal to the running maximum at
+// >= threshold or to the running minimum at <= -threshold (the compares straight into masks).
+MAV_TARGET_AVX512 inline __mmask32 Candidates32(const int16_t* row, const int16_t* mx,
+                                                const int16_t* mn, int x, int threshold) {
   const __m512i tau_m1 = _mm512_set1_epi16(static_cast<int16_t>(threshold - 1));
   const __m512i neg_tau_p1 = _mm512_set1_epi16(static_cast<int16_t>(-threshold + 1));
+  const __m512i val = Load32(row + x);
+  const __mmask32 is_max =
+      _mm512_cmpeq_epi16_mask(val, Load32(mx + x)) & _mm512_cmpgt_epi16_mask(val, tau_m1);
+  const __mmask32 is_min =
+      _mm512_cmpeq_epi16_mask(val, Load32(mn + x)) & _mm512_cmpgt_epi16_mask(neg_tau_p1, val);
+  return is_max | is_min;
+}
+
+// 32 pixels at a time.
+MAV_TARGET_AVX512 int FindCandidatesAvx512(const int16_t* row, const int16_t* mx, const int16_t* mn,
+                                           int x0, int x1, int threshold, int16_t* out) {
   int count = 0, x = x0;
   for (; x + 32 <= x1; x += 32) {
-    const __m512i val = Load32(row + x);
-    const __mmask32 is_max =
-        _mm512_cmpeq_epi16_mask(val, Load32(mx + x)) & _mm512_cmpgt_epi16_mask(val, tau_m1);
-    const __mmask32 is_min =
-        _mm512_cmpeq_epi16_mask(val, Load32(mn + x)) & _mm512_cmpgt_epi16_mask(neg_tau_p1, val);
-    for (uint32_t mask = is_max | is_min; mask != 0; mask &= mask - 1) {
+    for (uint32_t mask = Candidates32(row, mx, mn, x, threshold); mask != 0; mask &= mask - 1) {
       out[count++] = static_cast<int16_t>(x + __builtin_ctz(mask));
     }
+  }
+  return count + FindCandidatesAvx2(row, mx, mn, x, x1, threshold, out + count);
+}
+
+// FindCandidatesAvx512 without a branch per candidate (the loop over the mask's bits
+// mispredicted its exit on every block): a block's candidate positions are compressed into the
+// first lanes (vpcompressw) and stored as one vector of 32, of which the first popcount(mask)
+// count. `out` must have room for 32 entries past the last candidate.
+MAV_TARGET_VBMI2 int FindCandidatesVbmi2(const int16_t* row, const int16_t* mx, const int16_t* mn,
+                                         int x0, int x1, int threshold, int16_t* out) {
+  alignas(64) static constexpr int16_t kLanes[32] = {0,  1,  2,  3,  4,  5,  6,  7,  8,  9,  10,
+                                                     11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21,
+                                                     22, 23, 24, 25, 26, 27, 28, 29, 30, 31};
+  const __m512i lanes = _mm512_load_si512(kLanes);
+  int count = 0, x = x0;
+  for (; x + 32 <= x1; x += 32) {
+    const __mmask32 mask = Candidates32(row, mx, mn, x, threshold);
+    const __m512i positions = _mm512_add_epi16(lanes, _mm512_set1_epi16(static_cast<int16_t>(x)));
+    _mm512_storeu_si512(out + count, _mm512_maskz_compress_epi16(mask, positions));
+    count += __builtin_popcount(mask);
   }
   return count + FindCandidatesAvx2(row, mx, mn, x, x1, threshold, out + count);
 }
@@ -327,6 +365,7 @@ MAV_TARGET_AVX512 int FindCandidatesAvx512(const int16_t* row, const int16_t* mx
 int FindCandidates(Isa isa, const int16_t* row, const int16_t* mx, const int16_t* mn, int x0,
                    int x1, int threshold, int16_t* out) {
 #ifdef MAV_FEATURES_AVX2
+  if (isa == Isa::kAvx512Vbmi2) return FindCandidatesVbmi2(row, mx, mn, x0, x1, threshold, out);
   if (isa == Isa::kAvx512) return FindCandidatesAvx512(row, mx, mn, x0, x1, threshold, out);
   if (isa == Isa::kAvx2) return FindCandidatesAvx2(row, mx, mn, x0, x1, threshold, out);
 #endif
@@ -348,8 +387,9 @@ void SuppressNonExtrema(Isa isa, const int16_t* r, int w, int h, int lo_x, int h
   // Columns: the row pass reads x - n .. x + n, which must stay inside the row.
   const int x0 = std::max(lo_x, std::max(2, n)), x1 = std::min(hi_x, w - 2 - n);
   if (x0 >= x1 || lo_y >= hi_y) return;
-  scratch->resize(static_cast<size_t>(2) * w * h + 4 * w + 8);
-  int16_t* rmax = scratch->data();
+  // Row extrema (two images), column extrema (two rows), the candidates of a row (at most w,
+  // plus the 32 a vector store of FindCandidatesVbmi2 may write past the last).
+  int16_t* rmax = ScratchOf(scratch, static_cast<size_t>(2) * w * h + 3 * w + 32);
   int16_t* rmin = rmax + static_cast<size_t>(w) * h;
   int16_t* cmax = rmin + static_cast<size_t>(w) * h;
   int16_t* cmin = cmax + w;
@@ -411,13 +451,13 @@ void ComputeSobelBytes(const ImageView& image, std::vector<uint8_t>* sobel_u,
     for (int y = 1; y < h - 1; ++y)
       (*sb)[static_cast<size_t>(y) * w] = (*sb)[static_cast<size_t>(y) * w + w - 1] = 128;
   }
-  scratch->resize(2 * static_cast<size_t>(w));
+  int16_t* const rows = ScratchOf(scratch, 2 * static_cast<size_t>(w));
   for (int y = 1; y < h - 1; ++y) {
     const uint8_t* __restrict p0 = image.data + static_cast<size_t>(y - 1) * image.stride;
     const uint8_t* __restrict p1 = p0 + image.stride;
     const uint8_t* __restrict p2 = p1 + image.stride;
-    int16_t* __restrict vs = scratch->data();  // vertical [1 2 1] smoothing
-    int16_t* __restrict hd = vs + w;           // vertical [-1 0 1] difference
+    int16_t* __restrict vs = rows;    // vertical [1 2 1] smoothing
+    int16_t* __restrict hd = vs + w;  // vertical [-1 0 1] difference
     for (int x = 0; x < w; ++x) {
       vs[x] = static_cast<int16_t>(p0[x] + 2 * p1[x] + p2[x]);
       hd[x] = static_cast<int16_t>(p2[x] - p0[x]);
@@ -521,9 +561,8 @@ __attribute__((always_inline)) inline void FilterResponses(const ImageView& imag
       row[0] = row[1] = row[w - 2] = row[w - 1] = 0;
     }
   }
-  scratch->resize(3 * n);
   // Horizontal running sums of width 2, 3 and 5 (int16: at most 5 * 255).
-  int16_t* h2 = scratch->data();
+  int16_t* h2 = ScratchOf(scratch, 3 * n);
   int16_t* h3 = h2 + n;
   int16_t* h5 = h3 + n;
   for (int y = 0; y < h; ++y) {
@@ -598,6 +637,68 @@ bool CpuHasAvx512Bw() {
 #endif
 }
 
+// The descriptors of the n features at (u[i], v[i]) (every one keeps kDescriptorMargin), out
+// of the Sobel images (width w).
+void GatherDescriptors(const uint8_t* sobel_u, const uint8_t* sobel_v, int w, const int16_t* u,
+                       const int16_t* v, int n, Descriptor* out) {
+  int offsets[16];
+  for (int j = 0; j < 16; ++j) offsets[j] = kPatternV[j] * w + kPatternU[j];
+  for (int i = 0; i < n; ++i) {
+    const uint8_t* su = sobel_u + v[i] * w + u[i];
+    const uint8_t* sv = sobel_v + v[i] * w + u[i];
+    uint8_t* d = out[i].bytes.data();
+    for (int j = 0; j < 16; ++j) {
+      d[j] = su[offsets[j]];
+      d[16 + j] = sv[offsets[j]];
+    }
+  }
+}
+
+#ifdef MAV_FEATURES_AVX2
+// The pattern's rows, and per row the in-lane shuffle that moves the row's samples from the 16
+// bytes at u - 8 .. u + 7 to their places in the descriptor (0x80: zero).
+constexpr int kPatternRows[6] = {-5, -3, -1, 1, 3, 5};
+struct PatternShuffles {
+  alignas(32) int8_t control[6][32];
+};
+constexpr PatternShuffles MakePatternShuffles() {
+  PatternShuffles s{};
+  for (int r = 0; r < 6; ++r) {
+    for (int j = 0; j < 32; ++j) {
+      const int k = j % 16;
+      s.control[r][j] = kPatternV[k] == kPatternRows[r] ? static_cast<int8_t>(kPatternU[k] + 8)
+                                                        : static_cast<int8_t>(-128);
+    }
+  }
+  return s;
+}
+constexpr PatternShuffles kPatternShuffles = MakePatternShuffles();
+static_assert(FeatureSet::kDescriptorMargin >= 8, "the rows are loaded from u - 8");
+
+// GatherDescriptors with six row loads per Sobel image instead of 32 byte loads: each row of
+// the pattern is loaded once (the horizontal image in the low lane, the vertical in the high
+// lane), shuffled into place and merged.
+MAV_TARGET_AVX2 void GatherDescriptorsAvx2(const uint8_t* sobel_u, const uint8_t* sobel_v, int w,
+                                           const int16_t* u, const int16_t* v, int n,
+                                           Descriptor* out) {
+  __m256i control[6];
+  for (int r = 0; r < 6; ++r) {
+    control[r] = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPatternShuffles.control[r]));
+  }
+  for (int i = 0; i < n; ++i) {
+    const ptrdiff_t at = static_cast<ptrdiff_t>(v[i]) * w + u[i] - 8;
+    __m256i d = _mm256_setzero_si256();
+    for (int r = 0; r < 6; ++r) {
+      const ptrdiff_t row = at + static_cast<ptrdiff_t>(kPatternRows[r]) * w;
+      const __m256i both = _mm256_loadu2_m128i(reinterpret_cast<const __m128i*>(sobel_v + row),
+                                               reinterpret_cast<const __m128i*>(sobel_u + row));
+      d = _mm256_or_si256(d, _mm256_shuffle_epi8(both, control[r]));
+    }
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out[i].bytes.data()), d);
+  }
+}
+#endif
+
 }  // namespace
 
 void ComputeFilterResponses(const ImageView& image, std::vector<int16_t>* blob,
@@ -616,11 +717,13 @@ FeatureExtractor::FeatureExtractor(const FeatureOptions& options) : options_(opt
 #ifdef MAV_FEATURES_AVX2
   avx2_ = options_.use_avx2 && CpuHasAvx2();
   avx512_ = avx2_ && options_.use_avx512 && CpuHasAvx512Bw();
+  vbmi2_ = avx512_ && options_.use_vbmi2 && __builtin_cpu_supports("avx512vbmi2");
 #endif
 }
 
 bool FeatureExtractor::UsesAvx2() const { return avx2_; }
 bool FeatureExtractor::UsesAvx512() const { return avx512_; }
+bool FeatureExtractor::UsesVbmi2() const { return vbmi2_; }
 
 void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   const int w = image.width, h = image.height;
@@ -629,18 +732,22 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   out->cell_ = options_.grid_cell_px;
   out->cols_ = (w + out->cell_ - 1) / out->cell_;
   out->rows_ = (h + out->cell_ - 1) / out->cell_;
+  // The per-feature arrays are resized to their new counts below and every entry written: not
+  // cleared here, so that a set reused from frame to frame is not zero-filled first.
   for (auto& c : out->classes_) {
-    c.u.clear();
-    c.v.clear();
-    c.strength.clear();
-    c.descriptors.clear();
     c.cell_start.assign(static_cast<size_t>(out->cols_) * out->rows_ + 1, 0);
-    c.row_order.clear();
-    c.row_u.clear();
     c.row_start.assign(static_cast<size_t>(std::max(h, 0)) + 1, 0);
   }
   const int m = FeatureSet::kDescriptorMargin;
   if (w < 2 * m + 1 || h < 2 * m + 1 || image.data == nullptr) {
+    for (auto& c : out->classes_) {
+      c.u.clear();
+      c.v.clear();
+      c.strength.clear();
+      c.descriptors.clear();
+      c.row_order.clear();
+      c.row_u.clear();
+    }
     out->sobel_u_.assign(static_cast<size_t>(std::max(w, 0)) * std::max(h, 0), 128);
     out->sobel_v_ = out->sobel_u_;
     return;
@@ -675,7 +782,10 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   const int hi_y = (h - m - 1) / scale + 1;
   std::array<std::vector<RawFeature>, kNumFeatureClasses> raw;
   for (auto& r : raw) r.reserve(4096);
-  const Isa isa = avx512_ ? Isa::kAvx512 : avx2_ ? Isa::kAvx2 : Isa::kSse2;
+  const Isa isa = vbmi2_    ? Isa::kAvx512Vbmi2
+                  : avx512_ ? Isa::kAvx512
+                  : avx2_   ? Isa::kAvx2
+                            : Isa::kSse2;
   SuppressNonExtrema(isa, blob_.data(), det.width, det.height, lo, hi_x, lo, hi_y,
                      options_.nms_radius, options_.response_threshold, scale, &scratch_,
                      &raw[kBlobMax], &raw[kBlobMin]);
@@ -690,9 +800,6 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
   cell_row_.resize(h);
   for (int x = 0; x < w; ++x) cell_col_[x] = x / cell;
   for (int y = 0; y < h; ++y) cell_row_[y] = (y / cell) * cols;
-  // The descriptor's 16 positions as offsets into the Sobel images.
-  int offsets[16];
-  for (int i = 0; i < 16; ++i) offsets[i] = kPatternV[i] * w + kPatternU[i];
   for (int k = 0; k < kNumFeatureClasses; ++k) {
     FeatureSet::Class& c = out->classes_[k];
     const std::vector<RawFeature>& r = raw[k];
@@ -700,7 +807,7 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
     auto cell_of = [&](const RawFeature& f) { return cell_row_[f.v] + cell_col_[f.u]; };
     for (const RawFeature& f : r) ++start[cell_of(f) + 1];
     for (size_t i = 1; i < start.size(); ++i) start[i] += start[i - 1];
-    order_.assign(r.size(), 0);
+    order_.resize(r.size());  // every entry written below
     std::vector<int32_t> fill(start.begin(), start.end() - 1);
     for (size_t i = 0; i < r.size(); ++i) order_[fill[cell_of(r[i])]++] = static_cast<int32_t>(i);
     // The suppression emits in raster order: raw feature j is the j-th by (v, u).
@@ -721,15 +828,16 @@ void FeatureExtractor::Extract(const ImageView& image, FeatureSet* out) {
       c.u[i] = f.u;
       c.v[i] = f.v;
       c.strength[i] = f.strength;
-      // DescriptorAt without its check: every feature keeps the margin.
-      const uint8_t* su = out->sobel_u_.data() + f.v * w + f.u;
-      const uint8_t* sv = out->sobel_v_.data() + f.v * w + f.u;
-      uint8_t* d = c.descriptors[i].bytes.data();
-      for (int j = 0; j < 16; ++j) {
-        d[j] = su[offsets[j]];
-        d[16 + j] = sv[offsets[j]];
-      }
     }
+#ifdef MAV_FEATURES_AVX2
+    if (avx2_) {
+      GatherDescriptorsAvx2(out->sobel_u_.data(), out->sobel_v_.data(), w, c.u.data(), c.v.data(),
+                            c.size(), c.descriptors.data());
+      continue;
+    }
+#endif
+    GatherDescriptors(out->sobel_u_.data(), out->sobel_v_.data(), w, c.u.data(), c.v.data(),
+                      c.size(), c.descriptors.data());
   }
 }
 

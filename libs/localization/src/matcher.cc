@@ -7,6 +7,13 @@
 
 #include <Eigen/Core>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+// The square window searches with AVX-512 (F, BW, VL, DQ), chosen at run time.
+#define MAV_MATCHER_AVX512 1
+#define MAV_TARGET_AVX512 __attribute__((target("avx2,avx512f,avx512bw,avx512vl,avx512dq")))
+#endif
+
 namespace mav::localization {
 namespace {
 
@@ -15,11 +22,116 @@ struct Best {
   uint32_t cost = std::numeric_limits<uint32_t>::max();
 };
 
+// The match of a (SAD << 32 | index) key; none for ~0.
+Best BestOfKey(uint64_t key) {
+  if (key == std::numeric_limits<uint64_t>::max()) return Best{};
+  return Best{static_cast<int>(key & 0xffffffffu), static_cast<uint32_t>(key >> 32)};
+}
+
+#ifdef MAV_MATCHER_AVX512
+bool CpuHasMatcherAvx512() {
+  return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+         __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512dq");
+}
+
+// The SADs of eight consecutive descriptors against `query` (the query descriptor in both
+// halves), z0 .. z3 holding two each: per 512-bit psadbw four partial sums (8 bytes) per
+// descriptor, added in pairs, then halves. The result's lanes hold descriptors 0, 2, 1, 3, 4,
+// 6, 5, 7. (The maskz forms with a full mask throughout:
+// GCC 12's unmasked ones trip -Wmaybe-uninitialized, GCC bug 105593.)
+MAV_TARGET_AVX512 inline __m512i EightSads(__m512i query, __m512i z0, __m512i z1, __m512i z2,
+                                           __m512i z3) {
+  z0 = _mm512_sad_epu8(z0, query);
+  z1 = _mm512_sad_epu8(z1, query);
+  z2 = _mm512_sad_epu8(z2, query);
+  z3 = _mm512_sad_epu8(z3, query);
+  const __m512i s01 = _mm512_add_epi64(_mm512_maskz_unpacklo_epi64(0xff, z0, z1),
+                                       _mm512_maskz_unpackhi_epi64(0xff, z0, z1));
+  const __m512i s23 = _mm512_add_epi64(_mm512_maskz_unpacklo_epi64(0xff, z2, z3),
+                                       _mm512_maskz_unpackhi_epi64(0xff, z2, z3));
+  return _mm512_add_epi64(_mm512_maskz_shuffle_i64x2(0xff, s01, s23, 0x88),
+                          _mm512_maskz_shuffle_i64x2(0xff, s01, s23, 0xdd));
+}
+
+// (SAD << 32 | index) keys from EightSads' sums and the lanes' feature indices.
+MAV_TARGET_AVX512 inline __m512i Keys(__m512i sads, __m512i indices) {
+  return _mm512_or_si512(_mm512_maskz_slli_epi64(0xff, sads, 32), indices);
+}
+
+MAV_TARGET_AVX512 inline __m512i QueryOf(const Descriptor& d) {
+  return _mm512_maskz_broadcast_i64x4(
+      0xff, _mm256_load_si256(reinterpret_cast<const __m256i*>(d.bytes.data())));
+}
+
+MAV_TARGET_AVX512 inline uint64_t MinLane(__m512i keys) {
+  alignas(64) uint64_t lanes[8];
+  _mm512_store_si512(lanes, keys);
+  return *std::min_element(lanes, lanes + 8);
+}
+
+// The lowest (SAD << 32 | index) key of `d` among the features of `c` inside the window
+// [u0, u1] x [v0, v1] (clipped to the image), or ~0: ForEachInWindow's cell rows, eight features
+// at a time without a branch per feature. Each block's bounds tests give a mask; the SADs of all
+// eight descriptors (two per 512-bit psadbw) are summed in lanes and the masked keys kept in a
+// vector of running minima: the same minimum as visiting the window's features one by one.
+MAV_TARGET_AVX512 uint64_t BestKeyInWindowAvx512(const FeatureSet& fs, const FeatureSet::Class& c,
+                                                 const Descriptor& d, int u0, int u1, int v0,
+                                                 int v1) {
+  constexpr uint64_t kNone = std::numeric_limits<uint64_t>::max();
+  u0 = std::max(u0, 0);
+  v0 = std::max(v0, 0);
+  u1 = std::min(u1, fs.width() - 1);
+  v1 = std::min(v1, fs.height() - 1);
+  if (u0 > u1 || v0 > v1 || c.u.empty()) return kNone;
+  const int cell = fs.grid_cell_px(), cols = fs.grid_cols(), size = c.size();
+  const int cx0 = u0 / cell, cx1 = u1 / cell, cy0 = v0 / cell, cy1 = v1 / cell;
+  const __m128i lo_u = _mm_set1_epi16(static_cast<int16_t>(u0 - 1));
+  const __m128i hi_u = _mm_set1_epi16(static_cast<int16_t>(u1 + 1));
+  const __m128i lo_v = _mm_set1_epi16(static_cast<int16_t>(v0 - 1));
+  const __m128i hi_v = _mm_set1_epi16(static_cast<int16_t>(v1 + 1));
+  const __m512i query = QueryOf(d);
+  // The lanes of EightSads for contiguous descriptors: 0, 2, 1, 3, 4, 6, 5, 7 of a block.
+  const __m512i lane_index = _mm512_setr_epi64(0, 2, 1, 3, 4, 6, 5, 7);
+  const uint8_t* descriptors = reinterpret_cast<const uint8_t*>(c.descriptors.data());
+  __m512i best = _mm512_set1_epi64(static_cast<long long>(kNone));
+  uint64_t best_scalar = kNone;
+  for (int cy = cy0; cy <= cy1; ++cy) {
+    const int first = c.cell_start[cy * cols + cx0], last = c.cell_start[cy * cols + cx1 + 1];
+    int i = first;
+    for (; i < last && i + 8 <= size; i += 8) {
+      const __m128i u = _mm_loadu_si128(reinterpret_cast<const __m128i*>(c.u.data() + i));
+      const __m128i v = _mm_loadu_si128(reinterpret_cast<const __m128i*>(c.v.data() + i));
+      unsigned in = _mm_cmpgt_epi16_mask(u, lo_u) & _mm_cmplt_epi16_mask(u, hi_u) &
+                    _mm_cmpgt_epi16_mask(v, lo_v) & _mm_cmplt_epi16_mask(v, hi_v);
+      if (last - i < 8) in &= (1u << (last - i)) - 1;
+      if (in == 0) continue;
+      const uint8_t* block = descriptors + static_cast<size_t>(i) * sizeof(Descriptor);
+      const __m512i key =
+          Keys(EightSads(query, _mm512_loadu_si512(block), _mm512_loadu_si512(block + 64),
+                         _mm512_loadu_si512(block + 128), _mm512_loadu_si512(block + 192)),
+               _mm512_add_epi64(lane_index, _mm512_set1_epi64(static_cast<long long>(i))));
+      // The mask in the same lane order (bits 1 and 2, 5 and 6 swapped).
+      const unsigned lanes = (in & 0x99u) | ((in & 0x22u) << 1) | ((in & 0x44u) >> 1);
+      best = _mm512_mask_min_epu64(best, static_cast<__mmask8>(lanes), best, key);
+    }
+    for (; i < last; ++i) {  // the last features of the class, past the last whole block
+      if (c.u[i] < u0 || c.u[i] > u1 || c.v[i] < v0 || c.v[i] > v1) continue;
+      best_scalar =
+          std::min(best_scalar, (static_cast<uint64_t>(DescriptorSad(d, c.descriptors[i])) << 32) |
+                                    static_cast<uint32_t>(i));
+    }
+  }
+  return std::min(best_scalar, MinLane(best));
+}
+
+#endif
+
 // Best match of `d` among the features of class `c` inside [u0, u1] x [v0, v1] (inclusive): the
 // lowest SAD, the lowest index among equals (whatever the order of the visits). A window a few
-// rows tall (the stereo searches) is searched by rows, a square one by grid cells.
+// rows tall (the stereo searches) is searched by rows, a square one by grid cells (with AVX-512
+// when `avx512`).
 Best FindBest(const FeatureSet& fs, const FeatureSet::Class& c, const Descriptor& d, int u0, int u1,
-              int v0, int v1) {
+              int v0, int v1, bool avx512 = false) {
   // (cost, index) as one key whose minimum is the lowest cost, then the lowest index: a
   // conditional move per visit instead of a branch on the costs, which mispredicted and held
   // up the next visits' descriptor loads.
@@ -29,13 +141,26 @@ Best FindBest(const FeatureSet& fs, const FeatureSet::Class& c, const Descriptor
                          static_cast<uint32_t>(i);
     best = std::min(best, key);
   };
-  if (v1 - v0 < 4) {
+  const bool rows = v1 - v0 < 4;
+#ifdef MAV_MATCHER_AVX512
+  if (avx512 && !rows) return BestOfKey(BestKeyInWindowAvx512(fs, c, d, u0, u1, v0, v1));
+#endif
+  if (rows) {
     fs.ForEachInRows(c, u0, u1, v0, v1, visit);
   } else {
     fs.ForEachInWindow(c, u0, u1, v0, v1, visit);
   }
-  if (best == std::numeric_limits<uint64_t>::max()) return Best{};
-  return Best{static_cast<int>(best & 0xffffffffu), static_cast<uint32_t>(best >> 32)};
+  return BestOfKey(best);
+}
+
+// std::lround (halves away from zero) to int without the library call (half a percent of a VO
+// frame): truncation and the remainder (exact) below 1e9 in magnitude, where every predicted
+// position lies; the library beyond, and for NaN.
+inline int RoundToInt(double x) {
+  if (!(std::abs(x) < 1e9)) return static_cast<int>(std::lround(x));
+  const int t = static_cast<int>(x);
+  const double f = x - t;  // exact
+  return t + (f >= 0.5) - (f <= -0.5);
 }
 
 // Projects the point of a stereo feature (left pixel, disparity) through a rigid motion into
@@ -225,11 +350,22 @@ bool MatcherOptions::IsValid(std::string* why) const {
   return false;
 }
 
+bool MatcherUsesAvx512(const MatcherOptions& options) {
+#ifdef MAV_MATCHER_AVX512
+  static const bool cpu = CpuHasMatcherAvx512();
+  return options.use_avx512 && cpu;
+#else
+  (void)options;
+  return false;
+#endif
+}
+
 void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
                    const FeatureSet& cur_left, const FeatureSet& cur_right,
                    const camera::RectifiedStereo& rig, const geometry::SE3* T_cur_prev_predicted,
                    const MatcherOptions& options, std::vector<QuadMatch>* matches) {
   matches->clear();
+  const bool avx512 = MatcherUsesAvx512(options);
   const int tol = options.stereo_row_tolerance_px;
   const int dmin = options.min_disparity_px, dmax = options.max_disparity_px;
   const bool prior = options.use_motion_prior && T_cur_prev_predicted != nullptr;
@@ -254,12 +390,14 @@ void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
                                  T_prev_cur.Translation()};
 
   // Start features, optionally only the strongest few per bucket of the previous left image.
-  struct Start {
-    int16_t strength;
-    int16_t feature_class;
-    int32_t index;
+  // A start is one key whose ascending order is the strongest first, then the lowest class,
+  // then the lowest index (a total order): sorting keys is cheaper than sorting by a comparator.
+  auto start_key = [](int strength, int feature_class, int index) {
+    return (static_cast<uint64_t>(static_cast<uint16_t>(32767 - strength)) << 48) |
+           (static_cast<uint64_t>(static_cast<uint16_t>(feature_class)) << 32) |
+           static_cast<uint32_t>(index);
   };
-  std::vector<Start> starts;
+  std::vector<uint64_t> starts;
   const int bw = options.bucket_width_px, bh = options.bucket_height_px;
   const int bcols = std::max(1, (prev_left.width() + bw - 1) / bw);
   const int brows = std::max(1, (prev_left.height() + bh - 1) / bh);
@@ -285,7 +423,7 @@ void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
     for (int k = 0; k < kNumFeatureClasses; ++k) {
       const FeatureSet::Class& pl = prev_left.features(k);
       for (int i = 0; i < pl.size(); ++i) {
-        starts[fill[bucket_of(pl.u[i], pl.v[i])]++] = {pl.strength[i], static_cast<int16_t>(k), i};
+        starts[fill[bucket_of(pl.u[i], pl.v[i])]++] = start_key(pl.strength[i], k, i);
       }
     }
   }
@@ -295,14 +433,9 @@ void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
     for (size_t b = 0; b + 1 < bucket_start.size(); ++b) {
       auto first = starts.begin() + bucket_start[b], last = starts.begin() + bucket_start[b + 1];
       if (last - first > p) {
-        // The p first in a total order (class and index are unique): selected, then sorted.
-        auto stronger = [](const Start& a, const Start& c) {
-          if (a.strength != c.strength) return a.strength > c.strength;
-          if (a.feature_class != c.feature_class) return a.feature_class < c.feature_class;
-          return a.index < c.index;
-        };
-        std::nth_element(first, first + p, last, stronger);
-        std::sort(first, first + p, stronger);
+        // The p first keys: selected, then sorted.
+        std::nth_element(first, first + p, last);
+        std::sort(first, first + p);
         last = first + p;
       }
       for (auto it = first; it != last; ++it) starts[out++] = *it;
@@ -310,8 +443,8 @@ void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
     starts.resize(out);
   }
 
-  for (const Start& start : starts) {
-    const int k = start.feature_class, i = start.index;
+  for (const uint64_t start : starts) {
+    const int k = static_cast<uint16_t>(start >> 32), i = static_cast<int32_t>(start & 0xffffffffu);
     const FeatureSet::Class& pl = prev_left.features(k);
     const FeatureSet::Class& pr = prev_right.features(k);
     const FeatureSet::Class& cl = cur_left.features(k);
@@ -326,9 +459,9 @@ void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
       // 2. previous right -> current right (motion window).
       double pu = u_j, pv = v_j;
       if (prior) forward.Predict(u_i, v_i, u_i - u_j, /*right=*/true, &pu, &pv);
-      const int cu = static_cast<int>(std::lround(pu)), cv = static_cast<int>(std::lround(pv));
+      const int cu = RoundToInt(pu), cv = RoundToInt(pv);
       const Best kk = FindBest(cur_right, cr, pr.descriptors[j.index], cu - radius, cu + radius,
-                               cv - radius, cv + radius);
+                               cv - radius, cv + radius, avx512);
       if (kk.index < 0) continue;
       const int u_k = cr.u[kk.index], v_k = cr.v[kk.index];
       // 3. current right -> current left (same row, positive disparity).
@@ -339,9 +472,9 @@ void MatchCircular(const FeatureSet& prev_left, const FeatureSet& prev_right,
       // 4. current left -> previous left (motion window); the loop must return to feature i.
       double qu = u_l, qv = v_l;
       if (prior) backward.Predict(u_l, v_l, u_l - u_k, /*right=*/false, &qu, &qv);
-      const int bu = static_cast<int>(std::lround(qu)), bv = static_cast<int>(std::lround(qv));
+      const int bu = RoundToInt(qu), bv = RoundToInt(qv);
       const Best m = FindBest(prev_left, pl, cl.descriptors[l.index], bu - radius, bu + radius,
-                              bv - radius, bv + radius);
+                              bv - radius, bv + radius, avx512);
       if (m.index < 0) continue;
       if (m.index != i &&
           (std::abs(pl.u[m.index] - u_i) > loop_tol || std::abs(pl.v[m.index] - v_i) > loop_tol)) {
@@ -373,32 +506,46 @@ void BucketMatches(const MatcherOptions& options, int image_width, int image_hei
     const int r = std::clamp(static_cast<int>(q.v_cur_left) / bh, 0, rows - 1);
     return r * cols + c;
   };
-  // Sorted by bucket, then cost, then start position and class (a total order: one match per
-  // start), through an index so that each match's bucket is computed once.
-  std::vector<int32_t> buckets(matches->size()), order(matches->size());
-  for (size_t i = 0; i < matches->size(); ++i) {
-    buckets[i] = bucket((*matches)[i]);
-    order[i] = static_cast<int32_t>(i);
-  }
+  // Grouped by bucket (a counting sort; each match's bucket computed once), then ordered within
+  // its bucket by cost, start position and class (a total order: one match per start), of
+  // which the first bucket_max_matches are kept: the order of a full sort by (bucket, cost,
+  // position, class) at the cost of sorting a few matches per bucket.
+  struct Entry {
+    uint32_t cost;
+    float v, u;
+    int32_t feature_class;
+    int32_t index;
+  };
   const std::vector<QuadMatch>& m = *matches;
-  std::sort(order.begin(), order.end(), [&](int32_t ia, int32_t ib) {
-    if (buckets[ia] != buckets[ib]) return buckets[ia] < buckets[ib];
-    const QuadMatch& a = m[ia];
-    const QuadMatch& b = m[ib];
-    if (a.cost != b.cost) return a.cost < b.cost;
-    if (a.v_prev_left != b.v_prev_left) return a.v_prev_left < b.v_prev_left;
-    if (a.u_prev_left != b.u_prev_left) return a.u_prev_left < b.u_prev_left;
-    return a.feature_class < b.feature_class;
-  });
-  std::vector<QuadMatch> kept;
-  kept.reserve(matches->size());
-  int current = -1, count = 0;
-  for (const int32_t i : order) {
-    if (buckets[i] != current) {
-      current = buckets[i];
-      count = 0;
+  std::vector<int32_t> buckets(m.size());
+  std::vector<int32_t> start(static_cast<size_t>(cols) * rows + 1, 0);
+  for (size_t i = 0; i < m.size(); ++i) {
+    buckets[i] = bucket(m[i]);
+    ++start[buckets[i] + 1];
+  }
+  for (size_t b = 1; b < start.size(); ++b) start[b] += start[b - 1];
+  std::vector<Entry> entries(m.size());
+  {
+    std::vector<int32_t> fill(start.begin(), start.end() - 1);
+    for (size_t i = 0; i < m.size(); ++i) {
+      entries[fill[buckets[i]]++] = {m[i].cost, m[i].v_prev_left, m[i].u_prev_left,
+                                     m[i].feature_class, static_cast<int32_t>(i)};
     }
-    if (count++ < options.bucket_max_matches) kept.push_back(m[i]);
+  }
+  auto before = [](const Entry& a, const Entry& b) {
+    if (a.cost != b.cost) return a.cost < b.cost;
+    if (a.v != b.v) return a.v < b.v;
+    if (a.u != b.u) return a.u < b.u;
+    return a.feature_class < b.feature_class;
+  };
+  std::vector<QuadMatch> kept;
+  kept.reserve(m.size());
+  for (size_t b = 0; b + 1 < start.size(); ++b) {
+    const auto first = entries.begin() + start[b], last = entries.begin() + start[b + 1];
+    const auto keep = first + std::clamp<ptrdiff_t>(options.bucket_max_matches, 0, last - first);
+    if (keep != last) std::nth_element(first, keep, last, before);
+    std::sort(first, keep, before);
+    for (auto it = first; it != keep; ++it) kept.push_back(m[it->index]);
   }
   matches->swap(kept);
 }

@@ -15,6 +15,36 @@ namespace {
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using geometry::Vector6d;
 
+// StereoReprojectionResidual, inlined into the estimation's loops (the residual and Jacobian
+// stay in registers; the same operations, so the same bits).
+inline __attribute__((always_inline)) bool Residual(const camera::RectifiedStereo& rig,
+                                                    const geometry::SE3& T_cur_prev,
+                                                    const Eigen::Vector3d& p_prev,
+                                                    const StereoObservation& observation,
+                                                    Eigen::Vector4d* residual,
+                                                    Matrix46d* jacobian) {
+  const Eigen::Vector3d p = T_cur_prev * p_prev;
+  if (!(p.z() > 1e-3)) return false;
+  const double iz = 1.0 / p.z();
+  const double xl = p.x() * iz, xr = (p.x() - rig.baseline) * iz, y = p.y() * iz;
+  const double v = rig.fy * y + rig.cy;  // both images share the row
+  (*residual)(0) = rig.fx * xl + rig.cx - observation(0);
+  (*residual)(1) = v - observation(1);
+  (*residual)(2) = rig.fx * xr + rig.cx - observation(2);
+  (*residual)(3) = v - observation(3);
+  if (jacobian != nullptr) {
+    // d(projection)/dp, then dp/d(delta) = [I, -Hat(p)] for p' = Exp(delta) p.
+    Eigen::Matrix<double, 4, 3> dproj;
+    dproj << rig.fx * iz, 0, -rig.fx * xl * iz,  //
+        0, rig.fy * iz, -rig.fy * y * iz,        //
+        rig.fx * iz, 0, -rig.fx * xr * iz,       //
+        0, rig.fy * iz, -rig.fy * y * iz;
+    jacobian->leftCols<3>() = dproj;
+    jacobian->rightCols<3>() = -dproj * geometry::Hat(p);
+  }
+  return true;
+}
+
 bool IsFinite(const geometry::SE3& T) {
   return T.Translation().allFinite() && T.Rotation().coeffs().allFinite();
 }
@@ -28,7 +58,7 @@ void CollectInliers(const camera::RectifiedStereo& rig, const std::vector<Eigen:
   double sum = 0;
   Eigen::Vector4d r;
   for (size_t i = 0; i < points.size(); ++i) {
-    if (!StereoReprojectionResidual(rig, T, points[i], obs[i], &r, nullptr)) continue;
+    if (!Residual(rig, T, points[i], obs[i], &r, nullptr)) continue;
     const double e2 = r.squaredNorm();
     if (e2 < t2) {
       inliers->push_back(static_cast<int>(i));
@@ -54,26 +84,7 @@ void AddRotationPrior(const RotationPrior* prior, const geometry::SE3& T, Matrix
 bool StereoReprojectionResidual(const camera::RectifiedStereo& rig, const geometry::SE3& T_cur_prev,
                                 const Eigen::Vector3d& p_prev, const StereoObservation& observation,
                                 Eigen::Vector4d* residual, Matrix46d* jacobian) {
-  const Eigen::Vector3d p = T_cur_prev * p_prev;
-  if (!(p.z() > 1e-3)) return false;
-  const double iz = 1.0 / p.z();
-  const double xl = p.x() * iz, xr = (p.x() - rig.baseline) * iz, y = p.y() * iz;
-  const double v = rig.fy * y + rig.cy;  // both images share the row
-  (*residual)(0) = rig.fx * xl + rig.cx - observation(0);
-  (*residual)(1) = v - observation(1);
-  (*residual)(2) = rig.fx * xr + rig.cx - observation(2);
-  (*residual)(3) = v - observation(3);
-  if (jacobian != nullptr) {
-    // d(projection)/dp, then dp/d(delta) = [I, -Hat(p)] for p' = Exp(delta) p.
-    Eigen::Matrix<double, 4, 3> dproj;
-    dproj << rig.fx * iz, 0, -rig.fx * xl * iz,  //
-        0, rig.fy * iz, -rig.fy * y * iz,        //
-        rig.fx * iz, 0, -rig.fx * xr * iz,       //
-        0, rig.fy * iz, -rig.fy * y * iz;
-    jacobian->leftCols<3>() = dproj;
-    jacobian->rightCols<3>() = -dproj * geometry::Hat(p);
-  }
-  return true;
+  return Residual(rig, T_cur_prev, p_prev, observation, residual, jacobian);
 }
 
 bool StereoMotionOptions::IsValid(std::string* why) const {
@@ -111,7 +122,7 @@ bool RefineStereoMotion(const camera::RectifiedStereo& rig,
     Vector6d g = Vector6d::Zero();
     int used = 0;
     for (int i : indices) {
-      if (!StereoReprojectionResidual(rig, T, points_prev[i], observations[i], &r, &J)) continue;
+      if (!Residual(rig, T, points_prev[i], observations[i], &r, &J)) continue;
       H.noalias() += J.transpose() * J;
       g.noalias() += J.transpose() * r;
       ++used;
@@ -177,7 +188,7 @@ bool RefineStereoMotionAndStructure(const camera::RectifiedStereo& rig,
       used[k] = 0;
       if (!(ps.q.z() > 1e-3)) continue;
       const Eigen::Vector3d P = point_of(ps.q);
-      if (!StereoReprojectionResidual(rig, T, P, observations[ps.index], &r, &J)) continue;
+      if (!Residual(rig, T, P, observations[ps.index], &r, &J)) continue;
       Eigen::Matrix3d dP_dq;
       dP_dq << P.z() / fx, 0, -P.x() / ps.q.z(),  //
           0, P.z() / fy, -P.y() / ps.q.z(),       //

@@ -240,24 +240,40 @@ TEST(FeaturesTest, WideKernelsAndSse2KernelsFindTheSameFeatures) {
         options.half_resolution = half;
         options.response_threshold = image.image == &noise ? 0 : 50;
         FeatureExtractor best(options);
+        options.use_vbmi2 = false;
+        FeatureExtractor avx512(options);
+        ASSERT_FALSE(avx512.UsesVbmi2());
         options.use_avx512 = false;
         FeatureExtractor avx2(options);
         ASSERT_FALSE(avx2.UsesAvx512());
         options.use_avx2 = false;
         FeatureExtractor sse2(options);
         ASSERT_FALSE(sse2.UsesAvx2());
-        FeatureSet a, b, c;
+        FeatureSet a, a2, b, c;
         best.Extract({image.image->data(), image.w, image.h, image.w}, &a);
+        avx512.Extract({image.image->data(), image.w, image.h, image.w}, &a2);
         avx2.Extract({image.image->data(), image.w, image.h, image.w}, &b);
         sse2.Extract({image.image->data(), image.w, image.h, image.w}, &c);
         for (int k = 0; k < kNumFeatureClasses; ++k) {
-          for (const FeatureSet* wide : {&a, &b}) {
-            const char* which = wide == &a ? "widest" : "AVX2";
+          for (const FeatureSet* wide : {&a, &a2, &b}) {
+            const char* which = wide == &a ? "widest" : wide == &a2 ? "AVX-512BW" : "AVX2";
             ASSERT_EQ(wide->features(k).u, c.features(k).u)
                 << which << " n " << n << " class " << k;
             ASSERT_EQ(wide->features(k).v, c.features(k).v)
                 << which << " n " << n << " class " << k;
             ASSERT_EQ(wide->features(k).strength, c.features(k).strength) << which << " n " << n;
+          }
+          // The descriptors (AVX2's row shuffles, SSE2's byte loads) against DescriptorAt.
+          for (const FeatureSet* set : {&a, &a2, &b, &c}) {
+            const FeatureSet::Class& fc = set->features(k);
+            for (int i = 0; i < fc.size(); ++i) {
+              ASSERT_EQ(fc.descriptors[i].bytes, set->DescriptorAt(fc.u[i], fc.v[i]).bytes)
+                  << (set == &c    ? "SSE2"
+                      : set == &b  ? "AVX2"
+                      : set == &a2 ? "AVX-512BW"
+                                   : "widest")
+                  << " n " << n << " class " << k << " feature " << i;
+            }
           }
         }
         EXPECT_GT(a.TotalFeatures(), 0);
@@ -269,6 +285,9 @@ TEST(FeaturesTest, WideKernelsAndSse2KernelsFindTheSameFeatures) {
   }
   if (!FeatureExtractor(FeatureOptions{}).UsesAvx512()) {
     GTEST_SKIP() << "this CPU has no AVX-512BW: only the AVX2 and SSE2 kernels ran";
+  }
+  if (!FeatureExtractor(FeatureOptions{}).UsesVbmi2()) {
+    GTEST_SKIP() << "this CPU has no AVX512-VBMI2: its candidate compression did not run";
   }
 }
 

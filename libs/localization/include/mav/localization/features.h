@@ -76,6 +76,9 @@ struct FeatureOptions {
   bool use_avx2 = true;
   // With use_avx2: the suppression's kernels 32 pixels wide with AVX-512BW when the CPU has it.
   bool use_avx512 = true;
+  // With use_avx512: the suppression's candidate positions compressed with AVX512-VBMI2 when
+  // the CPU has it (no branch per candidate).
+  bool use_vbmi2 = true;
 
   bool IsValid(std::string* why) const;
 };
@@ -211,11 +214,14 @@ class FeatureExtractor {
   bool UsesAvx2() const;
   // Whether the suppression runs its AVX-512BW kernels (options.use_avx512 too).
   bool UsesAvx512() const;
+  // Whether the suppression compresses its candidates with AVX512-VBMI2 (options.use_vbmi2 too).
+  bool UsesVbmi2() const;
 
  private:
   FeatureOptions options_;
   bool avx2_ = false;
   bool avx512_ = false;
+  bool vbmi2_ = false;
   std::vector<uint8_t> half_;
   std::vector<int16_t> blob_, corner_, scratch_;
   std::vector<int32_t> order_;

@@ -66,8 +66,15 @@ struct MatcherOptions {
   // match, see RefineMatchesSubpixel.
   int refine_half_window_px = 3;
 
+  // Search the temporal (square) windows eight features at a time with AVX-512 when the CPU has
+  // it (F, BW, VL, DQ): the same matches (matcher_test compares).
+  bool use_avx512 = true;
+
   bool IsValid(std::string* why) const;
 };
+
+// Whether MatchCircular searches its square windows with AVX-512 under `options`.
+bool MatcherUsesAvx512(const MatcherOptions& options);
 
 // Circular matching. With a prediction (`T_cur_prev_predicted` non-null and
 // options.use_motion_prior), the stereo points of the previous pair moved by the predicted motion

@@ -137,7 +137,9 @@ void PrintStatus(const v1::MappingStatus& s) {
             << " without pose\n"
             << "keyframes: " << s.keyframes() << ", " << s.points() << " sparse points; "
             << "processing mean " << s.keyframe_ms().mean_ms() << " ms, p95 "
-            << s.keyframe_ms().p95_ms() << " ms\n";
+            << s.keyframe_ms().p95_ms() << " ms\n"
+            << "worker:    " << (s.worker_busy() ? "busy" : "idle") << ", " << s.queue_depth()
+            << " waiting\n";
   if (s.building()) {
     std::cout << "building:  " << s.build_progress().stage() << " ("
               << 100.0 * s.build_progress().fraction() << " %, " << s.build_progress().elapsed_s()

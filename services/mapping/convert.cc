@@ -227,6 +227,8 @@ void ToProto(const MapperStatus& status, v1::MappingStatus* out) {
   }
   for (const MapStats& map : status.maps) ToProto(map, out->add_maps());
   ToProto(status.keyframe_ms, out->mutable_keyframe_ms());
+  out->set_worker_busy(status.worker_busy);
+  out->set_queue_depth(status.queue_depth);
 }
 
 v1::CollisionState ToProto(mapping::BoxQuery::Answer answer, bool unknown_is_collision) {

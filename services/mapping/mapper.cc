@@ -403,6 +403,7 @@ MapperStatus Mapper::GetStatus() const {
   s.frames_dropped = frames_dropped_;
   s.frames_rejected = frames_rejected_;
   s.queue_depth = static_cast<uint32_t>(queue.depth);
+  s.worker_busy = queue.busy;
   s.pending_frames = matcher_ ? static_cast<uint32_t>(matcher_->pending()) : 0;
   s.building = building_;
   if (building_) {

@@ -161,8 +161,9 @@ struct MapperStatus {
   uint64_t frames_without_pose = 0;  // live frames dropped: no pose (see PoseMatcher)
   uint64_t frames_dropped = 0;       // live keyframes dropped: queue full / keyframe limit
   uint64_t frames_rejected = 0;      // live frames of the wrong size / failed rectification
-  uint32_t queue_depth = 0;
-  uint32_t pending_frames = 0;  // live frames waiting for their pose
+  uint32_t queue_depth = 0;          // keyframes waiting for the worker
+  bool worker_busy = false;          // the worker runs a task (a keyframe, a build, a reset)
+  uint32_t pending_frames = 0;       // live frames waiting for their pose
   bool building = false;
   std::string build_stage;
   double build_fraction = 0;

@@ -831,19 +831,21 @@ TEST_F(MappingContractTest, AnInsertPastItsDeadlineChangesNothing) {
   std::thread other([this] {
     for (size_t i = 0; i < 6; ++i) EXPECT_TRUE(Insert(KeyframeRequest(i, true)).ok());
   });
-  // Until the worker is on the other client's second keyframe (selected = counted, then
-  // submitted): a fixed sleep let a loaded machine send the late frame to an idle worker.
+  // Until the worker has integrated two of the other client's keyframes and runs the third:
+  // then the late frame queues behind a keyframe that has just started (~100 ms). Waiting for
+  // the count alone and then a fixed time let a loaded machine (the sanitizer pass) send the
+  // late frame to an idle worker between two of the other client's keyframes, where it ran.
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (std::chrono::steady_clock::now() < give_up) {
     grpc::ClientContext poll;
     v1::MappingStatus s;
     // (No ASSERT here: the other thread must be joined.)
-    if (!stub_->GetStatus(&poll, v1::MappingGetStatusRequest(), &s).ok() || s.keyframes() >= 2) {
+    if (!stub_->GetStatus(&poll, v1::MappingGetStatusRequest(), &s).ok() ||
+        (s.keyframes() >= 2 && s.worker_busy())) {
       break;
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(10));
   // Later than all of the other client's frames, and it waits behind the one in progress.
   v1::InsertKeyframeRequest late = KeyframeRequest(9, true);
   grpc::ClientContext context;
@@ -856,6 +858,8 @@ TEST_F(MappingContractTest, AnInsertPastItsDeadlineChangesNothing) {
   v1::MappingStatus status;
   ASSERT_TRUE(stub_->GetStatus(&status_context, v1::MappingGetStatusRequest(), &status).ok());
   EXPECT_EQ(status.keyframes(), 6u);
+  EXPECT_FALSE(status.worker_busy());
+  EXPECT_EQ(status.queue_depth(), 0u);
   // The retry is accepted.
   ASSERT_TRUE(Insert(late, &response).ok());
   EXPECT_TRUE(response.accepted());

@@ -13,29 +13,43 @@
 #   ours-whc       ours without WhcHigh
 #
 #   tools/dds-config-ablation.sh [--seconds S] [--rounds R] [--size 722k] [--only NAME,...]
+#                                [--pongs N]
+#
+# --pongs N  N pong processes answer each ping (Cyclone's own floor for a stream with N
+#            subscribers; each answer is a full sample back, so a round trip carries N of them).
+#            With N > 1 no process is pinned: N + 1 processes share the cores, as a stream's
+#            subscribers do.
 #
 # Prints one row per run: the round trip's median over its one-second p50s, the mean and the
-# largest of its one-second p99s, and the samples (ddsperf reports per second, not per sample).
+# largest of its one-second p99s, and the samples (ddsperf reports per second and per pong, not
+# per sample).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 seconds=15
 rounds=2
 size=722k
 only=""
+pongs=1
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --seconds) seconds="${2:?}"; shift 2 ;;
     --rounds) rounds="${2:?}"; shift 2 ;;
     --size) size="${2:?}"; shift 2 ;;
     --only) only="${2:?}"; shift 2 ;;
-    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
+    --pongs) pongs="${2:?}"; shift 2 ;;
+    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
     *) echo "dds-config-ablation.sh: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done
+[[ "$pongs" =~ ^[1-9][0-9]*$ ]] || { echo "dds-config-ablation.sh: --pongs: a count >= 1, got '$pongs'" >&2; exit 2; }
 command -v ddsperf > /dev/null || { echo "dds-config-ablation.sh: ddsperf not found (Debian's cyclonedds-tools)" >&2; exit 1; }
 work="$(mktemp -d /tmp/mav-dds-ablation.XXXXXX)"
-pong_pid=""
-cleanup() { [[ -n "$pong_pid" ]] && kill "$pong_pid" 2> /dev/null; wait 2> /dev/null || true; rm -rf "$work"; }
+pong_pids=()
+cleanup() {
+  [[ ${#pong_pids[@]} -gt 0 ]] && kill "${pong_pids[@]}" 2> /dev/null
+  wait 2> /dev/null || true
+  rm -rf "$work"
+}
 trap cleanup EXIT
 
 ours="$repo/deploy/cyclonedds.xml"
@@ -62,14 +76,19 @@ for round in $(seq "$rounds"); do
   for c in "${configs[@]}"; do
     uri=""
     [[ "$c" == default ]] || uri="file://$work/$c.xml"
-    CYCLONEDDS_URI="$uri" taskset -c 1 ddsperf -i "$domain" -D $(( seconds + 3 )) pong > "$work/pong.log" 2>&1 &
-    pong_pid=$!
-    sleep 0.5
-    CYCLONEDDS_URI="$uri" taskset -c 0 ddsperf -i "$domain" -D "$seconds" ping 20Hz size "$size" \
+    pin_pong=(taskset -c 1) pin_ping=(taskset -c 0)
+    [[ "$pongs" -gt 1 ]] && pin_pong=() pin_ping=()
+    for p in $(seq "$pongs"); do
+      CYCLONEDDS_URI="$uri" "${pin_pong[@]}" ddsperf -i "$domain" -D $(( seconds + 3 )) pong \
+        > "$work/pong-$p.log" 2>&1 &
+      pong_pids+=($!)
+    done
+    sleep $(( pongs > 1 ? 1 : 0 )).5
+    CYCLONEDDS_URI="$uri" "${pin_ping[@]}" ddsperf -i "$domain" -D "$seconds" ping 20Hz size "$size" \
       > "$work/ping-$c-$round.log" 2>&1 || true
-    kill "$pong_pid" 2> /dev/null || true
-    wait "$pong_pid" 2> /dev/null || true
-    pong_pid=""
+    kill "${pong_pids[@]}" 2> /dev/null || true
+    wait "${pong_pids[@]}" 2> /dev/null || true
+    pong_pids=()
     # Per-second lines: "... size N mean Xus min Xus 50% Xus 90% Xus 99% Xus max Xus cnt N".
     # mawk has no sort: the p50s are sorted by sort(1) and their median taken from the list.
     p50s="$(grep -oE ' 50% [0-9.]+us' "$work/ping-$c-$round.log" | sed -E 's/ 50% ([0-9.]+)us/\1/' | sort -g | tr '\n' ' ')"

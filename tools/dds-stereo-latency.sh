@@ -3,8 +3,9 @@
 # docs/benchmarks.md, "DDS stereo stream"): mav-simulator replays the room-easy preset (752 x 480
 # x 2 MONO8) at 20 Hz on loopback to SUBS separate `mavctl listen` processes, once per setting,
 # alternating, each ROUNDS times; then Cyclone's ddsperf ping/pong with the same payload at
-# Cyclone's default settings (the yardstick: our one-way p99 must not exceed its round-
-# trip p99); then the as-fast-as-subscribers replay (frames/s, one subscriber).
+# Cyclone's default settings, with as many pong processes as subscribers (the yardstick:
+# our one-way p99 must not exceed its round-trip p99); then the as-fast-as-subscribers replay
+# (frames/s, one subscriber).
 #
 #   tools/dds-stereo-latency.sh [--frames N] [--rounds R] [--subscribers "1 4"]
 #                               [--settings "ours,shm,waitset,normal"] [--seconds S] [--out DIR]
@@ -37,7 +38,7 @@ while [[ $# -gt 0 ]]; do
     --settings) settings="${2:?}"; shift 2 ;;
     --seconds) seconds="${2:?}"; shift 2 ;;
     --out) out="${2:?}"; mkdir -p "$out"; shift 2 ;;
-    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,24p' "$0"; exit 0 ;;
     *) echo "dds-stereo-latency.sh: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done
@@ -117,9 +118,13 @@ for r in $(seq "$rounds"); do
 done
 
 echo
-echo "Cyclone's floor: ddsperf ping/pong, 722 KiB at 20 Hz, Cyclone's default settings, $seconds s"
-echo
-"$repo/tools/dds-config-ablation.sh" --seconds "$seconds" --rounds 1 --only default
+for subs in $subscribers; do
+  echo "Cyclone's floor: ddsperf ping/pong, 722 KiB at 20 Hz, Cyclone's default settings, $seconds s," \
+    "$subs pong process(es) (each answers with a full sample)"
+  echo
+  "$repo/tools/dds-config-ablation.sh" --seconds "$seconds" --rounds 1 --only default --pongs "$subs"
+  echo
+done
 
 fast_replay() {  # $1: MAV_DDS_SHM (0 or 1)
   local shm=$1 transport=udp

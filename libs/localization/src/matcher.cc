@@ -37,8 +37,8 @@ bool CpuHasMatcherAvx512() {
 // The SADs of eight consecutive descriptors against `query` (the query descriptor in both
 // halves), z0 .. z3 holding two each: per 512-bit psadbw four partial sums (8 bytes) per
 // descriptor, added in pairs, then halves. The result's lanes hold descriptors 0, 2, 1, 3, 4,
-// 6, 5, 7. (The maskz forms with a full mask throughout:
-// GCC 12's unmasked ones trip -Wmaybe-uninitialized, GCC bug 105593.)
+// 6, 5, 7. (The maskz forms with a full mask throughout: GCC 12's unmasked ones trip
+// -Wmaybe-uninitialized, GCC bug 105593.)
 MAV_TARGET_AVX512 inline __m512i EightSads(__m512i query, __m512i z0, __m512i z1, __m512i z2,
                                            __m512i z3) {
   z0 = _mm512_sad_epu8(z0, query);
@@ -58,11 +58,13 @@ MAV_TARGET_AVX512 inline __m512i Keys(__m512i sads, __m512i indices) {
   return _mm512_or_si512(_mm512_maskz_slli_epi64(0xff, sads, 32), indices);
 }
 
+// The query descriptor in both 256-bit halves.
 MAV_TARGET_AVX512 inline __m512i QueryOf(const Descriptor& d) {
   return _mm512_maskz_broadcast_i64x4(
       0xff, _mm256_load_si256(reinterpret_cast<const __m256i*>(d.bytes.data())));
 }
 
+// The smallest of the eight keys.
 MAV_TARGET_AVX512 inline uint64_t MinLane(__m512i keys) {
   alignas(64) uint64_t lanes[8];
   _mm512_store_si512(lanes, keys);

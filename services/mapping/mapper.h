@@ -161,7 +161,7 @@ struct MapperStatus {
   uint64_t frames_without_pose = 0;  // live frames dropped: no pose (see PoseMatcher)
   uint64_t frames_dropped = 0;       // live keyframes dropped: queue full / keyframe limit
   uint64_t frames_rejected = 0;      // live frames of the wrong size / failed rectification
-  uint32_t queue_depth = 0;          // keyframes waiting for the worker
+  uint32_t queue_depth = 0;          // tasks waiting for the worker (keyframes, a build)
   bool worker_busy = false;          // the worker runs a task (a keyframe, a build, a reset)
   uint32_t pending_frames = 0;       // live frames waiting for their pose
   bool building = false;

@@ -72,7 +72,7 @@ MAV_TARGET_AVX512 inline uint64_t MinLane(__m512i keys) {
 }
 
 // The lowest (SAD << 32 | index) key of `d` among the features of `c` inside the window
-// [u0, u1] x [v0, v1] (clipped to the image), or ~0: ForEachInWindow's cell rows, eight features
+// [u0, u1] x [v0, v1] (clipped to the image), or ~0: ForEachInWindow's cell ranges, eight features
 // at a time without a branch per feature. Each block's bounds tests give a mask; the SADs of all
 // eight descriptors (two per 512-bit psadbw) are summed in lanes and the masked keys kept in a
 // vector of running minima: the same minimum as visiting the window's features one by one.
@@ -80,25 +80,21 @@ MAV_TARGET_AVX512 uint64_t BestKeyInWindowAvx512(const FeatureSet& fs, const Fea
                                                  const Descriptor& d, int u0, int u1, int v0,
                                                  int v1) {
   constexpr uint64_t kNone = std::numeric_limits<uint64_t>::max();
-  u0 = std::max(u0, 0);
-  v0 = std::max(v0, 0);
-  u1 = std::min(u1, fs.width() - 1);
-  v1 = std::min(v1, fs.height() - 1);
-  if (u0 > u1 || v0 > v1 || c.u.empty()) return kNone;
-  const int cell = fs.grid_cell_px(), cols = fs.grid_cols(), size = c.size();
-  const int cx0 = u0 / cell, cx1 = u1 / cell, cy0 = v0 / cell, cy1 = v1 / cell;
-  const __m128i lo_u = _mm_set1_epi16(static_cast<int16_t>(u0 - 1));
-  const __m128i hi_u = _mm_set1_epi16(static_cast<int16_t>(u1 + 1));
-  const __m128i lo_v = _mm_set1_epi16(static_cast<int16_t>(v0 - 1));
-  const __m128i hi_v = _mm_set1_epi16(static_cast<int16_t>(v1 + 1));
+  const FeatureSet::Window w = fs.ClipWindow(c, u0, u1, v0, v1);
+  if (w.empty) return kNone;
+  const int size = c.size();
+  const __m128i lo_u = _mm_set1_epi16(static_cast<int16_t>(w.u0 - 1));
+  const __m128i hi_u = _mm_set1_epi16(static_cast<int16_t>(w.u1 + 1));
+  const __m128i lo_v = _mm_set1_epi16(static_cast<int16_t>(w.v0 - 1));
+  const __m128i hi_v = _mm_set1_epi16(static_cast<int16_t>(w.v1 + 1));
   const __m512i query = QueryOf(d);
   // The lanes of EightSads for contiguous descriptors: 0, 2, 1, 3, 4, 6, 5, 7 of a block.
   const __m512i lane_index = _mm512_setr_epi64(0, 2, 1, 3, 4, 6, 5, 7);
   const uint8_t* descriptors = reinterpret_cast<const uint8_t*>(c.descriptors.data());
   __m512i best = _mm512_set1_epi64(static_cast<long long>(kNone));
   uint64_t best_scalar = kNone;
-  for (int cy = cy0; cy <= cy1; ++cy) {
-    const int first = c.cell_start[cy * cols + cx0], last = c.cell_start[cy * cols + cx1 + 1];
+  for (int cy = w.cy0; cy <= w.cy1; ++cy) {
+    const int first = fs.CellRowFirst(c, w, cy), last = fs.CellRowLast(c, w, cy);
     int i = first;
     for (; i < last && i + 8 <= size; i += 8) {
       const __m128i u = _mm_loadu_si128(reinterpret_cast<const __m128i*>(c.u.data() + i));
@@ -117,7 +113,7 @@ MAV_TARGET_AVX512 uint64_t BestKeyInWindowAvx512(const FeatureSet& fs, const Fea
       best = _mm512_mask_min_epu64(best, static_cast<__mmask8>(lanes), best, key);
     }
     for (; i < last; ++i) {  // the last features of the class, past the last whole block
-      if (c.u[i] < u0 || c.u[i] > u1 || c.v[i] < v0 || c.v[i] > v1) continue;
+      if (c.u[i] < w.u0 || c.u[i] > w.u1 || c.v[i] < w.v0 || c.v[i] > w.v1) continue;
       best_scalar =
           std::min(best_scalar, (static_cast<uint64_t>(DescriptorSad(d, c.descriptors[i])) << 32) |
                                     static_cast<uint32_t>(i));

@@ -118,23 +118,43 @@ class FeatureSet {
   // Features keep this distance from the image border (descriptor window + refinement step).
   static constexpr int kDescriptorMargin = 8;
 
+  // A window [u0, u1] x [v0, v1] (inclusive) clipped to the image, and the grid cells it
+  // overlaps: columns [cx0, cx1], rows [cy0, cy1]. `empty`: nothing of `c` can be inside.
+  struct Window {
+    int u0, u1, v0, v1;
+    int cx0 = 0, cx1 = -1, cy0 = 0, cy1 = -1;
+    bool empty = true;
+  };
+  Window ClipWindow(const Class& c, int u0, int u1, int v0, int v1) const {
+    Window w{std::max(u0, 0), std::min(u1, width_ - 1), std::max(v0, 0), std::min(v1, height_ - 1)};
+    w.empty = w.u0 > w.u1 || w.v0 > w.v1 || c.u.empty();
+    if (!w.empty) {
+      w.cx0 = w.u0 / cell_;
+      w.cx1 = w.u1 / cell_;
+      w.cy0 = w.v0 / cell_;
+      w.cy1 = w.v1 / cell_;
+    }
+    return w;
+  }
+  // The features of the window's cells on cell row cy, [first, last) of the cell order: a row's
+  // cells are contiguous in the sorted order, so the window's cells of a row are one range.
+  int CellRowFirst(const Class& c, const Window& w, int cy) const {
+    return c.cell_start[cy * cols_ + w.cx0];
+  }
+  int CellRowLast(const Class& c, const Window& w, int cy) const {
+    return c.cell_start[cy * cols_ + w.cx1 + 1];
+  }
+
   // Calls visit(i) for the index i of every feature of `c` (one of this set's classes) inside
   // the window [u0, u1] x [v0, v1] (inclusive, clipped to the image), cell row by cell row, in
   // increasing index: the one window search of the matchers (the VO's and the mapping's stereo
   // matching).
   template <typename Visit>
   void ForEachInWindow(const Class& c, int u0, int u1, int v0, int v1, Visit&& visit) const {
-    u0 = std::max(u0, 0);
-    v0 = std::max(v0, 0);
-    u1 = std::min(u1, width_ - 1);
-    v1 = std::min(v1, height_ - 1);
-    if (u0 > u1 || v0 > v1 || c.u.empty()) return;
-    const int cx0 = u0 / cell_, cx1 = u1 / cell_, cy0 = v0 / cell_, cy1 = v1 / cell_;
-    for (int cy = cy0; cy <= cy1; ++cy) {
-      // A row's cells are contiguous in the sorted order, so the window's cells of a row are
-      // one range.
-      ScanRange(c.u.data(), c.v.data(), c.size(), c.cell_start[cy * cols_ + cx0],
-                c.cell_start[cy * cols_ + cx1 + 1], u0, u1, v0, v1, [&](int i) { visit(i); });
+    const Window w = ClipWindow(c, u0, u1, v0, v1);
+    for (int cy = w.cy0; cy <= w.cy1; ++cy) {
+      ScanRange(c.u.data(), c.v.data(), c.size(), CellRowFirst(c, w, cy), CellRowLast(c, w, cy),
+                w.u0, w.u1, w.v0, w.v1, [&](int i) { visit(i); });
     }
   }
 
